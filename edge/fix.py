@@ -1,0 +1,42 @@
+"""`ShipFix`: one measured ship position, the unit every output consumes.
+
+The pipeline emits one `ShipFix` per live track and pair; NMEA, Modbus and the
+tracks CSV are all written from it. Times are UTC nanoseconds of the
+measurement (not of sending); positions are in the world frame of SPEC.md
+(origin at the baseline midpoint, X right, Y down, Z forward) and on WGS-84.
+Unknown values are ``None`` so that outputs can leave them empty, never 0.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+
+class TrackStatus(enum.StrEnum):
+    """Track lifecycle state, with the NMEA TTM/TLL status letters as values."""
+
+    ACQUIRING = "Q"
+    TRACKING = "T"
+    LOST = "L"
+
+
+@dataclass(frozen=True, slots=True)
+class ShipFix:
+    t_ns: int  # UTC of the measurement, ns since the Unix epoch
+    track_id: int  # internal track id, never reused
+    status: TrackStatus
+    x_m: float  # world frame, metres (eq. 4.1)
+    y_m: float
+    z_m: float
+    range_m: float  # horizontal distance from the site (baseline midpoint)
+    bearing_deg: float  # true bearing from the site, [0, 360)
+    lat_deg: float  # WGS-84
+    lon_deg: float
+    sog_kn: float | None  # speed over ground, knots; None until the track has motion
+    cog_deg: float | None  # course over ground, true, [0, 360)
+    sigma_m: float  # 1-sigma range error from the disparity sigma (eq. 4.5)
+    disparity_px: float  # filtered disparity used for this fix
+    age_s: float = 0.0  # time since the track was born
+    confidence: float | None = None  # 0..1, from match quality and filter state
+    length_m: float | None = None  # apparent ship length estimate
