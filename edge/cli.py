@@ -17,8 +17,9 @@ from edge.errors import EX_CONFIG, ConfigError
 
 # subcommand -> (module, one-line help). Order is the order of `--help`.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "budget": ("edge.budget_cli", "error budget of a rig (eq. 4.5, 4.6, 3.12)"),
-    "calibrate": ("edge.calibrate_cli", "fit camera models from surveyed landmarks"),
+    "budget": ("edge.commands.budget", "error budget of a rig (eq. 4.5, 4.6, 3.12)"),
+    "calibrate": ("edge.commands.calibrate", "fit camera models from surveyed landmarks"),
+    "simulate": ("edge.commands.simulate", "render a stereo sea scene with ground truth to a recording"),
 }
 
 

@@ -1,0 +1,5 @@
+"""Pure computation: geometry, camera models, error budget, matching, sub-pixel fit, filters.
+
+No I/O, no threads, no drivers (tests/test_house.py checks). Integer hot paths
+sit beside float references; Q-format scale constants live in `fixedpoint`.
+"""
