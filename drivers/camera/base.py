@@ -1,0 +1,84 @@
+"""The frame-pair source contract every camera driver implements.
+
+A `FramePairSource` hands the pipeline one `FramePair` at a time: the two
+8-bit images, the pair timestamp `t_ns` (what pairing and tracking use), each
+camera's own sequence number and exposure timestamp (so the consumer can see
+trigger skew and dropped frames), plus two counters:
+
+- ``skipped``: pairs the source had but could not deliver (an unreadable PNG
+  in a recording, a corrupt buffer from a camera);
+- ``dropped``: pairs the source knows were never produced or were thrown away
+  (gaps in the sequence numbers, frames abandoned to keep up in real time).
+
+Real implementations: `v4l2.py` (two V4L2 cameras), `replay.py` (a recording
+directory); the virtual one, `virtual.py`, wraps a generator such as the
+simulator. Drivers never import `edge`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Iterator
+from dataclasses import dataclass
+from types import TracebackType
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class FramePair:
+    """One stereo pair: left is the reference image (DESIGN.md)."""
+
+    left: np.ndarray  # (H, W) uint8 grey, or (H, W, 3) BGR
+    right: np.ndarray
+    t_ns: int  # pair timestamp (CLOCK_MONOTONIC when live; the recording's clock in replay)
+    seq_left: int  # the left camera's own frame counter
+    seq_right: int
+    t_left_ns: int  # each camera's exposure timestamp, same clock as t_ns
+    t_right_ns: int
+
+    @property
+    def skew_ns(self) -> int:
+        """Right exposure time minus left: the trigger skew of this pair."""
+        return self.t_right_ns - self.t_left_ns
+
+
+class FramePairSource(ABC):
+    """Blocking source of frame pairs; iterate it, or call `read()` until it returns None."""
+
+    def __init__(self) -> None:
+        self.skipped = 0
+        self.dropped = 0
+        self._closed = False
+
+    @abstractmethod
+    def read(self) -> FramePair | None:
+        """The next pair (blocking until it is due); None once the source is exhausted or closed."""
+
+    @property
+    def info(self) -> dict:
+        """Descriptive facts about the source (fps, width, height, ...); empty if unknown."""
+        return {}
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        """Release files/devices; `read()` returns None afterwards. Safe to call twice."""
+        self._closed = True
+
+    def __iter__(self) -> Iterator[FramePair]:
+        while (pair := self.read()) is not None:
+            yield pair
+
+    def __enter__(self) -> FramePairSource:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
