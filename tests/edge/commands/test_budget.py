@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import subprocess
 import sys
@@ -41,7 +42,7 @@ def test_json_with_options_matches_the_library() -> None:
     assert [m["tolerance_m"] for m in got["max_ranges"]] == [150.0, 20.0]
     assert round(got["max_ranges"][0]["z_max_first_order_m"]) == 5372
     assert got["range_errors"][1]["error_far_m"] is None  # beyond L_B / eps: unmeasurable
-    assert got["detectable_range_m"] == pytest.approx(30 * 2048 / (24 * 0.3939100751), rel=1e-8)
+    assert got["detectable_range_m"] == pytest.approx(30 * 2048 / (24 * math.tan(math.radians(21.5))))
 
 
 def test_table_shows_the_figures() -> None:
