@@ -85,7 +85,7 @@ def _newton_inverse(
     for _ in range(MAX_NEWTON_ITER):
         value, jac = forward(p)
         resid = value - target
-        if np.all(np.abs(resid).max(axis=-1) <= tol):
+        if not np.any(np.abs(resid).max(axis=-1) > tol):  # converged, or NaN input (stays NaN)
             return p
         det = jac[..., 0, 0] * jac[..., 1, 1] - jac[..., 0, 1] * jac[..., 1, 0]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -93,7 +93,7 @@ def _newton_inverse(
             step1 = (jac[..., 0, 0] * resid[..., 1] - jac[..., 1, 0] * resid[..., 0]) / det
         p = p - np.stack([step0, step1], axis=-1)
     value, _ = forward(p)
-    ok = np.abs(value - target).max(axis=-1) <= tol
+    ok = np.abs(value - target).max(axis=-1) <= tol  # False for NaN: non-converged points become NaN
     return np.where(ok[..., None], p, np.nan)
 
 
