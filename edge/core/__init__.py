@@ -3,3 +3,7 @@
 No I/O, no threads, no drivers (tests/test_house.py checks). Integer hot paths
 sit beside float references; Q-format scale constants live in `fixedpoint`.
 """
+
+from edge.core.match import Match, match_point, match_point_float
+
+__all__ = ["Match", "match_point", "match_point_float"]

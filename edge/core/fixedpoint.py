@@ -1,0 +1,107 @@
+"""Fixed-point scale constants and the few integer helpers the core's hot paths share.
+
+Every Q format used by the matching and filtering core is defined here, once, so the
+DSP/FPGA port has a single page to read (DESIGN.md, "Fixed-point rules"):
+
+- disparity and sub-pixel positions: Q8 pixels (1 LSB = 1/256 px) at the interfaces,
+  Q10 inside the 3-point fits so that averaging two fits and rounding to Q8 stays within
+  1 LSB of the float reference;
+- Butterworth biquad coefficients: Q14, state in Q(8 + 14) = Q22 pixels ("wide state", so a
+  low cutoff never leaves a dead band);
+- alpha-beta (steady-state Kalman) gains and state: Q24.
+
+The helpers take and return Python ints (arbitrary precision, so the *code* cannot overflow);
+the widths a port needs are stated beside each routine and checked by tests. Rounding is
+"half away from zero" everywhere, which is symmetric and therefore bias-free on signed data.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# --- sub-pixel (eq. 5.2) ---------------------------------------------------------------
+SUBPIX_BITS = 8                      # Q8 px at the interfaces (Match.disparity_q8)
+SUBPIX_ONE = 1 << SUBPIX_BITS        # 256
+FIT_BITS = 10                        # Q10 px for each 3-point fit before the final rounding
+FIT_ONE = 1 << FIT_BITS
+
+# --- Butterworth biquad (eq. 6.1) ----------------------------------------------------------
+BIQUAD_COEF_BITS = 14                # Q14 coefficients (CMSIS postShift = 1 convention)
+BIQUAD_STATE_BITS = SUBPIX_BITS + BIQUAD_COEF_BITS   # Q22 px wide output state
+
+# --- alpha-beta / constant-velocity Kalman -------------------------------------------------
+AB_BITS = 24                         # Q24 gains and Q24 px state (int64 state)
+AB_ONE = 1 << AB_BITS
+
+INT32_MIN = -(1 << 31)
+INT32_MAX = (1 << 31) - 1
+
+
+def round_shift(value: int, bits: int) -> int:
+    """value / 2**bits rounded half away from zero (an arithmetic right shift with rounding)."""
+    if bits <= 0:
+        return value << -bits
+    half = 1 << (bits - 1)
+    if value >= 0:
+        return (value + half) >> bits
+    return -((-value + half) >> bits)
+
+
+def round_shift_array(values: np.ndarray, bits: int) -> np.ndarray:
+    """Vectorised `round_shift` for int64 arrays (|values| < 2**62)."""
+    v = np.asarray(values, dtype=np.int64)
+    half = np.int64(1 << (bits - 1))
+    mag = (np.abs(v) + half) >> bits
+    return np.where(v < 0, -mag, mag)
+
+
+def div_round(num: int, den: int) -> int:
+    """num / den rounded half away from zero (den > 0); the int64 reference of `restoring_divide`."""
+    if den <= 0:
+        raise ValueError("den must be positive")
+    q = (2 * abs(num) + den) // (2 * den)
+    return q if num >= 0 else -q
+
+
+def restoring_divide(num: int, den: int, frac_bits: int) -> int:
+    """Q(frac_bits) quotient of num/den for |num| <= den, rounded half away from zero.
+
+    This is the FPGA/DSP form of the sub-pixel division (research note §3.2): one
+    compare-and-subtract per quotient bit plus one more to round, so the remainder never
+    exceeds 2*den and the registers need only bits(den) + 2 (no `num << 8` overflow).
+    Bit-identical to `div_round(num << frac_bits, den)`; tests check it.
+    """
+    if den <= 0:
+        raise ValueError("den must be positive")
+    if abs(num) > den:
+        raise ValueError("restoring_divide needs |num| <= den")
+    rem = abs(num)
+    quotient = 0
+    for _ in range(frac_bits + 1):          # frac_bits quotient bits plus one rounding bit
+        rem <<= 1
+        quotient <<= 1
+        if rem >= den:
+            rem -= den
+            quotient |= 1
+    if abs(num) == den:                     # the loop above holds only |num| < den exactly
+        quotient = 1 << (frac_bits + 1)
+    quotient = (quotient + 1) >> 1          # the extra bit rounds half away from zero
+    return quotient if num >= 0 else -quotient
+
+
+def saturate(value: int, bits: int = 32) -> int:
+    """Clamp to the signed `bits`-bit range (saturate, never wrap)."""
+    lo = -(1 << (bits - 1))
+    hi = (1 << (bits - 1)) - 1
+    return lo if value < lo else hi if value > hi else value
+
+
+def to_q(value: float, bits: int) -> int:
+    """Nearest Q(bits) integer of a float (half away from zero)."""
+    scaled = float(value) * (1 << bits)
+    return int(np.sign(scaled) * np.floor(abs(scaled) + 0.5))
+
+
+def from_q(value: int, bits: int) -> float:
+    """Float value of a Q(bits) integer."""
+    return value / float(1 << bits)

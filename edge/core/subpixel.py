@@ -1,0 +1,133 @@
+"""Sub-pixel refinement of a cost curve: the 3-point parabola (eq. 5.2) and Shimizu-Okutomi
+half-pixel error cancellation, each as an integer routine with a float reference beside it.
+
+Why cancellation: the parabola assumes a cost-curve shape the image does not have, leaving a
+periodic error e(f) ~ -A sin(2 pi f) in the fractional disparity f ("pixel locking", the
+thesis's 0.1 px floor). Its first harmonic flips sign under a half-pixel shift,
+e(f + 1/2) ~ -e(f), so averaging with an estimate made on half-pixel-shifted data cancels it
+(research note §1.1, §1.3). The *symmetric* variant used here:
+
+    Lh(x) = L(x) + L(x+1),  Rh(x) = R(x) + R(x+1)          (9-bit sums, no interpolation)
+    pass A: curve of (Lh, Rh)  -> dA ~ d                  (same [1 1] smoothing on both views)
+    pass B: curve of (Lh, 2R)  -> dB ~ d - 1/2            (Lh(x) = 2 L(x + 1/2))
+    d = (dA + dB + 1/2) / 2
+
+Integer form: each fit is one division num/den to Q10 (FIT_BITS), with num = c(-1) - c(+1),
+den = 2(c(-1) - 2c(0) + c(+1)) and |num| <= den/2 at an interior minimum; the average is
+formed in Q10 and rounded once to Q8. Worst-case difference from the float reference:
+2^-11 (fit) + 2^-9 (final rounding) < 1/256 px. Costs of 15x15 ZSSD on 9-bit sums reach
+2^34, so den needs 37 bits (int64); num << 10 needs 47 bits, or use
+`fixedpoint.restoring_divide` (bit-identical, never forms num << 10) on a 32-bit DSP/FPGA.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from edge.core.fixedpoint import FIT_BITS, SUBPIX_BITS, div_round, round_shift
+
+
+def parabola_q(c_minus: int, c_zero: int, c_plus: int) -> int | None:
+    """Offset of the parabola's vertex from the centre sample, Q10 px (eq. 5.2); None if the
+    three costs do not bracket a minimum (den <= 0 or the vertex beyond +-1/2)."""
+    num = c_minus - c_plus
+    den = 2 * (c_minus - 2 * c_zero + c_plus)
+    if den <= 0 or 2 * abs(num) > den:
+        return None
+    return div_round(num << FIT_BITS, den)     # == restoring_divide(num, den, FIT_BITS) (tested)
+
+
+def parabola_float(c_minus: float, c_zero: float, c_plus: float) -> float | None:
+    """Float reference of `parabola_q` (offset in px)."""
+    num = c_minus - c_plus
+    den = 2.0 * (c_minus - 2.0 * c_zero + c_plus)
+    if not den > 0 or 2 * abs(num) > den * (1 + 1e-12):
+        return None
+    return num / den
+
+
+def interior_argmin(costs: np.ndarray) -> int | None:
+    """Index of the first minimum if it is not at either end of the curve, else None."""
+    k = int(np.argmin(costs))
+    return k if 0 < k < len(costs) - 1 else None
+
+
+def fit_curve_q(costs: np.ndarray, d_first: int) -> int | None:
+    """Sub-pixel minimum (Q10 px) of an integer curve whose entry k is disparity d_first + k."""
+    k = interior_argmin(costs)
+    if k is None:
+        return None
+    off = parabola_q(int(costs[k - 1]), int(costs[k]), int(costs[k + 1]))
+    if off is None:
+        return None
+    return ((d_first + k) << FIT_BITS) + off
+
+
+def fit_curve_float(costs: np.ndarray, d_first: int) -> float | None:
+    """Float reference of `fit_curve_q` (px)."""
+    k = interior_argmin(costs)
+    if k is None:
+        return None
+    off = parabola_float(float(costs[k - 1]), float(costs[k]), float(costs[k + 1]))
+    return None if off is None else d_first + k + off
+
+
+def fit_to_q8(fit_q10: int) -> int:
+    """Round a Q10 fit to the Q8 interface format."""
+    return round_shift(fit_q10, FIT_BITS - SUBPIX_BITS)
+
+
+def cancel_q8(da_q10: int, db_q10: int) -> int:
+    """d = (dA + dB + 1/2) / 2, from two Q10 fits to Q8 with a single rounding."""
+    twice_d_q10 = da_q10 + db_q10 + (1 << (FIT_BITS - 1))      # 2d in Q10 = d in Q11
+    return round_shift(twice_d_q10, FIT_BITS + 1 - SUBPIX_BITS)
+
+
+def cancel_float(da: float, db: float) -> float:
+    """Float reference of `cancel_q8`."""
+    return 0.5 * (da + db + 0.5)
+
+
+def symmetric_q8(da_q10: int, db_q10: int, ra_q10: int, rb_q10: int) -> int:
+    """Both-way cancellation: left-to-right dA ~ d, dB ~ d - 1/2 and right-to-left
+    rA ~ d, rB ~ d + 1/2; d = (dA + dB + rA + rB) / 4, from Q10 fits to Q8 in one rounding."""
+    four_d_q10 = da_q10 + db_q10 + ra_q10 + rb_q10              # 4d in Q10 = d in Q12
+    return round_shift(four_d_q10, FIT_BITS + 2 - SUBPIX_BITS)
+
+
+def symmetric_float(da: float, db: float, ra: float, rb: float) -> float:
+    """Float reference of `symmetric_q8`."""
+    return 0.25 * (da + db + ra + rb)
+
+
+def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int, cost: str,
+                       as_float: bool = False) -> tuple[np.ndarray, ...]:
+    """Cost curves of the four half-pixel passes around the integer disparity d0, in one
+    vectorised step (18 windows):
+
+    LR-A (Lh vs Rh) for d = d0-2 .. d0+2,   LR-B (Lh vs 2R) for d = d0-2 .. d0+1,
+    RL-A (Rh vs Lh) for e = -d0-2 .. -d0+2, RL-B (Rh vs 2L) for e = -d0-2 .. -d0+1,
+    where the right-to-left passes put the template on the right window at xr = xl - d0 and
+    search the left image (e = -d). Needs columns xl-h-2 .. xl+h+3 and xr-h-2 .. xr+h+3.
+    Integer: N*sum(D^2) - (sum D)^2 (or sum D^2) in int64; float: mean-subtracted SSD (/N)."""
+    w = left_band.shape[0]
+    h = w // 2
+    xr = xl - d0
+    regs = np.stack((left_band[:, xl - h - 2:xl + h + 4], right_band[:, xr - h - 2:xr + h + 4]))
+    regs = regs.astype(np.float64 if as_float else np.int64)                # (2, w, w+5)
+    cols = np.arange(5)[:, None] + np.arange(w)[None, :]                    # shifts p = 0..4
+    half = (regs[:, :, :-1] + regs[:, :, 1:])[:, :, cols]                   # (2, w, 5, w) Lh, Rh
+    dbl = 2 * regs[:, :, cols[1:]]                                          # (2, w, 4, w) 2L, 2R
+    cands = np.concatenate((half, dbl), axis=2)                             # p = 0..4, 1..4
+    diff = half[:, :, 2:3, :] - cands[::-1]            # [0]: Lh vs (Rh, 2R); [1]: Rh vs (Lh, 2L)
+    if as_float:
+        if cost != "ssd":
+            diff = diff - diff.mean(axis=(1, 3), keepdims=True)
+        costs = (diff * diff).sum(axis=(1, 3))
+    else:
+        costs = (diff * diff).sum(axis=(1, 3))
+        if cost != "ssd":
+            s1 = diff.sum(axis=(1, 3))
+            costs = (w * w) * costs - s1 * s1
+    curve_a, curve_b = costs[:, 4::-1], costs[:, 8:4:-1]        # ascending d (descending p)
+    return curve_a[0], curve_b[0], curve_a[1], curve_b[1]
