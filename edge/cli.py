@@ -19,6 +19,7 @@ from edge.errors import EX_CONFIG, ConfigError
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "budget": ("edge.commands.budget", "error budget of a rig (eq. 4.5, 4.6, 3.12)"),
     "calibrate": ("edge.commands.calibrate", "fit camera models from surveyed landmarks"),
+    "check-config": ("edge.commands.check_config", "load a configuration/calibration and print a summary"),
     "simulate": ("edge.commands.simulate", "render a stereo sea scene with ground truth to a recording"),
 }
 

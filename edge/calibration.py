@@ -1,0 +1,183 @@
+"""The calibration file (DESIGN.md): YAML <-> `Calibration` (a `StereoRig` plus an optional `Site`).
+
+```
+baseline_m: 8.14
+image: {width: 720, height: 480}
+cameras:
+  left:  {model: pinhole, fx: .., fy: .., cx: .., cy: .., dist: [k1, k2, p1, p2, k3],
+          rotation_deg: [rx, ry, rz]}
+  right: {model: poly10, cx: .., cy: .., coeffs: [a0, .., a9], rotation_deg: [rx, ry, rz]}
+site: {lat_deg: .., lon_deg: .., height_m: .., heading_deg: ..}     # optional
+```
+
+Besides types and unknown keys (edge.schema), a calibration is checked for
+what would silently give wrong positions: a positive baseline and focal
+lengths (fx, fy; a0, a5 for poly10), a principal point inside the image, and
+a lens model that can be inverted over the whole image (a distortion that
+folds over inside the image maps two pixels to one ray). Every error names
+the file and the key, e.g. ``cameras.right.coeffs[0]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from edge.core.camera import CameraModel, PinholeCamera, Poly10Camera, StereoRig
+from edge.core.site import Site
+from edge.errors import ConfigError
+from edge.schema import load_dataclass, load_yaml, setting
+
+ROUND_TRIP_TOL_PX = 1e-6  # pixel -> ray -> pixel over a grid of the image
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A calibrated rig and, if the file gives one, where it stands."""
+
+    rig: StereoRig
+    site: Site | None = None
+
+
+# ---------------------------------------------------------------- file schema
+
+
+@dataclass(frozen=True)
+class SiteSchema:
+    lat_deg: float = setting(doc="WGS-84 latitude of the baseline midpoint", min=-90.0, max=90.0)
+    lon_deg: float = setting(doc="WGS-84 longitude", min=-180.0, max=180.0)
+    height_m: float = setting(doc="height of the baseline midpoint above mean sea level", min=-500.0,
+                              max=9000.0)
+    heading_deg: float = setting(doc="true azimuth of the optical axis (world +Z)", min=0.0, max=360.0)
+
+
+@dataclass(frozen=True)
+class _Image:
+    width: int = setting(doc="image width in pixels", min=1, max=65535)
+    height: int = setting(doc="image height in pixels", min=1, max=65535)
+
+
+_ROT = "rotation (rx, ry, rz) in degrees, R = Rz Ry Rx, camera to world"
+
+
+@dataclass(frozen=True)
+class _Pinhole:
+    model: Literal["pinhole"]
+    fx: float = setting(positive=True, doc="focal length in pixels, horizontal")
+    fy: float = setting(positive=True, doc="focal length in pixels, vertical")
+    cx: float = setting(doc="principal point, pixels")
+    cy: float = setting(doc="principal point, pixels")
+    dist: tuple[float, float, float, float, float] = setting(doc="OpenCV k1, k2, p1, p2, k3")
+    rotation_deg: tuple[float, float, float] = setting(doc=_ROT)
+
+
+@dataclass(frozen=True)
+class _Poly10:
+    model: Literal["poly10"]
+    cx: float = setting(doc="pixel origin of eq. 3.5 (principal point)")
+    cy: float = setting(doc="pixel origin of eq. 3.5 (principal point)")
+    coeffs: tuple[float, ...] = setting(min_items=10, max_items=10, doc="a0..a9 of eq. 3.5")
+    rotation_deg: tuple[float, float, float] = setting(doc=_ROT)
+
+
+@dataclass(frozen=True)
+class _Cameras:
+    left: _Pinhole | _Poly10
+    right: _Pinhole | _Poly10
+
+
+@dataclass(frozen=True)
+class _CalibrationFile:
+    baseline_m: float = setting(positive=True, doc="distance between the camera centres, metres")
+    image: _Image = setting()
+    cameras: _Cameras = setting()
+    site: SiteSchema | None = setting(None, doc="where the rig stands; optional")
+
+
+# ---------------------------------------------------------------- dict -> Calibration
+
+
+def site_from_dict(data: Any, file: str | Path | None, key: str = "site") -> Site:
+    """A `Site` from a mapping with lat_deg, lon_deg, height_m, heading_deg (range-checked)."""
+    return _site(load_dataclass(SiteSchema, data, file, key))
+
+
+def _site(s: SiteSchema) -> Site:
+    return Site(lat_deg=s.lat_deg, lon_deg=s.lon_deg, height_m=s.height_m, heading_deg=s.heading_deg % 360.0)
+
+
+def _camera(spec: _Pinhole | _Poly10, image: _Image, file: Any, key: str) -> CameraModel:
+    for axis, size in (("cx", image.width), ("cy", image.height)):
+        value = getattr(spec, axis)
+        if not 0.0 <= value <= size - 1:
+            raise ConfigError(file, f"{key}.{axis}", f"a principal point inside the image [0, {size - 1}]",
+                              value)
+    if isinstance(spec, _Pinhole):
+        camera: CameraModel = PinholeCamera(spec.fx, spec.fy, spec.cx, spec.cy, spec.dist, spec.rotation_deg)
+    else:
+        for index in (0, 5):
+            if spec.coeffs[index] <= 0.0:
+                raise ConfigError(file, f"{key}.coeffs[{index}]", "a number > 0 (1 / focal length in px)",
+                                  spec.coeffs[index])
+        camera = Poly10Camera(spec.cx, spec.cy, spec.coeffs, spec.rotation_deg)
+    _check_invertible(camera, image, file, key)
+    return camera
+
+
+def _check_invertible(camera: CameraModel, image: _Image, file: Any, key: str) -> None:
+    """pixel -> ray -> pixel must come back over the whole image (no fold-over, no divergence)."""
+    u, v = np.meshgrid(np.linspace(0.0, image.width - 1, 17), np.linspace(0.0, image.height - 1, 13))
+    uv = np.stack([u.ravel(), v.ravel()], axis=-1)
+    back = camera.camera_to_pixel(camera.pixel_to_camera(uv))
+    error = np.abs(back - uv).max(axis=-1)
+    bad = ~(error <= ROUND_TRIP_TOL_PX)
+    if bad.any():
+        first = uv[np.argmax(bad)]
+        raise ConfigError(file, key, "a lens model that is invertible over the whole image",
+                          f"no unique ray at pixel ({first[0]:.0f}, {first[1]:.0f}): check the signs "
+                          "and sizes of the distortion coefficients")
+
+
+def calibration_from_dict(data: Any, file: str | Path | None, key_prefix: str = "") -> Calibration:
+    """Validate a calibration mapping (DESIGN.md format) and build the rig; errors name the key."""
+    spec = load_dataclass(_CalibrationFile, data, file, key_prefix)
+    prefix = f"{key_prefix}." if key_prefix else ""
+    left = _camera(spec.cameras.left, spec.image, file, f"{prefix}cameras.left")
+    right = _camera(spec.cameras.right, spec.image, file, f"{prefix}cameras.right")
+    rig = StereoRig(spec.baseline_m, spec.image.width, spec.image.height, left, right)
+    return Calibration(rig=rig, site=None if spec.site is None else _site(spec.site))
+
+
+def load_calibration(path: str | Path) -> Calibration:
+    """Read and validate a calibration YAML file."""
+    return calibration_from_dict(load_yaml(path), path)
+
+
+def site_to_dict(site: Site) -> dict[str, float]:
+    return {"lat_deg": float(site.lat_deg), "lon_deg": float(site.lon_deg),
+            "height_m": float(site.height_m), "heading_deg": float(site.heading_deg)}
+
+
+def calibration_to_dict(cal: Calibration) -> dict[str, Any]:
+    """The DESIGN.md mapping (plain Python floats and lists, ready for yaml.safe_dump)."""
+    rig = cal.rig
+    out: dict[str, Any] = {
+        "baseline_m": float(rig.baseline_m),
+        "image": {"width": int(rig.width), "height": int(rig.height)},
+        "cameras": {"left": _plain(rig.left.to_dict()), "right": _plain(rig.right.to_dict())},
+    }
+    if cal.site is not None:
+        out["site"] = site_to_dict(cal.site)
+    return out
+
+
+def _plain(mapping: dict[str, Any]) -> dict[str, Any]:
+    return {k: [float(x) for x in v] if isinstance(v, list | tuple) else v if isinstance(v, str) else float(v)
+            for k, v in mapping.items()}
+
+
+__all__ = ["Calibration", "SiteSchema", "calibration_from_dict", "calibration_to_dict", "load_calibration",
+           "site_from_dict", "site_to_dict"]

@@ -1,0 +1,290 @@
+"""The appliance's configuration: one YAML file -> a frozen `AppConfig` (schema below).
+
+`load_config(path)` reads the file with `edge.schema` (types, ranges, unknown
+keys, duplicate keys: every mistake is a `ConfigError` naming the file and
+the key path, exit 78 from the CLI) and then checks what spans several keys.
+Relative paths (calibration file, replay recording, scenario file) are taken
+relative to the configuration file's directory and stored absolute.
+
+Every key has a default, and the defaults are the demo: simulated cameras
+running the `akashi-crossing` scenario, Modbus TCP on 127.0.0.1:1502, no
+serial port. `AppConfig()` is therefore a working configuration, and
+config/demo.yaml spells the same thing out. `markdown_table(AppConfig)`
+renders this schema for the README.
+
+`calibration` is a path to a calibration YAML (edge.calibration) or the same
+mapping inline; when absent, virtual cameras take the scenario's calibration
+and replay the recording's. `site`, when given, overrides the calibration's.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Literal
+
+from edge.calibration import Calibration, calibration_from_dict, load_calibration, site_from_dict
+from edge.core.site import Site
+from edge.errors import ConfigError
+from edge.schema import load_dataclass, load_yaml, setting
+from edge.schema_table import markdown_table
+
+BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)
+
+
+def _multicast(value: str) -> str | None:
+    try:
+        ok = ipaddress.IPv4Address(value).is_multicast
+    except ValueError:
+        ok = False
+    return None if ok else "an IPv4 multicast address (224.0.0.0/4; IEC 61162-450 uses 239.192.0.1-64)"
+
+
+def _ipv4(value: str) -> str | None:
+    try:
+        ipaddress.IPv4Address(value)
+    except ValueError:
+        return "an IPv4 address such as 0.0.0.0 or 192.168.1.10"
+    return None
+
+
+def _odd(value: int) -> str | None:
+    return None if value % 2 == 1 else "an odd integer (the window is centred on the point)"
+
+
+def _load_calibration_ref(value: Any, file: Any, key: str) -> Calibration | None:
+    """`calibration:` is a path (relative to the config file) or an inline calibration mapping."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return load_calibration(_resolve(file, value))
+    if isinstance(value, dict):
+        return calibration_from_dict(value, file, key)
+    raise ConfigError(file, key, "a calibration file path or an inline calibration mapping", value)
+
+
+def _load_site(value: Any, file: Any, key: str) -> Site | None:
+    return None if value is None else site_from_dict(value, file, key)
+
+
+def _resolve(file: Any, path: str) -> Path:
+    p = Path(path).expanduser()
+    return p if p.is_absolute() or file is None else Path(file).resolve().parent / p
+
+
+# ---------------------------------------------------------------- cameras
+
+
+@dataclass(frozen=True)
+class TriggerConfig:
+    kind: Literal["none", "gpio", "virtual"] = setting("none", doc="external trigger: none (free-running)"
+                                                       ", a GPIO line (chardev) or a virtual one")
+    chip: str = setting("/dev/gpiochip0", doc="GPIO chip device (kind gpio)")
+    line: int = setting(0, min=0, max=511, doc="GPIO line offset on the chip (kind gpio)")
+    pulse_us: int = setting(1000, min=1, max=100_000, doc="trigger pulse width, microseconds")
+
+
+@dataclass(frozen=True)
+class V4l2Cameras:
+    kind: Literal["v4l2"] = setting("v4l2", doc="two V4L2 capture devices")
+    left: str = setting("/dev/video0", doc="left camera device (a udev stable name is best)")
+    right: str = setting("/dev/video2", doc="right camera device")
+    pixel_format: str = setting("GREY", pattern=r"[0-9A-Z]{3}[0-9A-Z ]", doc="V4L2 fourcc, e.g. GREY, YUYV")
+    fps: float = setting(10.0, positive=True, max=240.0, doc="frame rate (or trigger rate)")
+    buffers: int = setting(4, min=2, max=32, doc="V4L2 buffers per camera")
+    max_skew_ms: float = setting(5.0, positive=True, doc="largest left/right timestamp difference of a pair")
+    trigger: TriggerConfig = setting(default_factory=TriggerConfig)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReplayCameras:
+    kind: Literal["replay"] = setting("replay", doc="frame pairs from a recording directory")
+    path: str = setting(doc="recording directory (relative to this file)")
+    pace: bool = setting(True, doc="at the recorded frame rate (false: as fast as possible)")
+    loop: bool = setting(False, doc="start over at the end")
+
+
+@dataclass(frozen=True)
+class VirtualCameras:
+    kind: Literal["virtual"] = setting("virtual", doc="the simulator renders live pairs")
+    scenario: str = setting("akashi-crossing", doc="scenario name in config/scenarios, or a .yaml path")
+    seed: int = setting(0, min=0, doc="noise seed (same seed, same frames)")
+    pace: bool = setting(True, doc="in real time at the scenario's frame rate")
+    loop: bool = setting(True, doc="start the scenario over at its end")
+
+
+# ---------------------------------------------------------------- processing
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    window: int = setting(15, min=3, max=63, check=_odd, doc="matching window side, px (eq. 3.8)")
+    max_disparity: int = setting(128, min=1, max=2048, doc="disparity search range, px")
+    cost: Literal["zssd", "ssd"] = setting("zssd", doc="zero-mean SSD (robust to gain/offset) or plain SSD")
+    detect_every: int = setting(5, min=1, max=1000, doc="run ship detection on every k-th pair")
+    detect_decimation: int = setting(2, min=1, max=8, doc="detection works on an image shrunk by this")
+    min_ship_px: int = setting(20, min=2, max=1000, doc="smallest ship length to detect, px (eq. 3.12)")
+    max_tracks: int = setting(32, min=1, max=99, doc="live tracks at most (NMEA numbers 01-99)")
+    filter: Literal["kalman", "butterworth"] = setting("kalman", doc="disparity filter (Butterworth eq. 6.1)")
+    butterworth_cutoff_hz: float = setting(0.5, positive=True, doc="cut-off of the Butterworth filter")
+    gate_sigma: float = setting(3.0, positive=True, doc="innovation gate of the Kalman filter, sigmas")
+    coast_s: float = setting(3.0, min=0.0, max=600.0, doc="a track unseen this long turns lost (L)")
+
+
+# ---------------------------------------------------------------- outputs
+
+
+@dataclass(frozen=True)
+class ProprietaryConfig:
+    enabled: bool = setting(False, doc="also send the proprietary x/y sentence ($P<mfr>TXY)")
+    manufacturer: str = setting("XXX", pattern="[A-Z]{3}", doc="NMEA manufacturer code (must be assigned)")
+
+
+_SENTENCES = "sentences sent for each track update"
+
+
+@dataclass(frozen=True)
+class NmeaPort:
+    url: str = setting(doc="pyserial URL: /dev/ttyS1, loop://, socket://host:port, spy:///dev/ttyS1")
+    baud: int = setting(38400, choices=BAUD_RATES, doc="baud rate")
+    bytesize: Literal[7, 8] = setting(8, doc="data bits")
+    parity: Literal["N", "E", "O"] = setting("N", doc="parity")
+    stopbits: Literal[1, 2] = setting(1, doc="stop bits")
+    talker: str = setting("RA", pattern="[A-Z][A-Z0-9]", doc="talker id (RA radar, II, U0..U9)")
+    sentences: tuple[Literal["TTM", "TLL"], ...] = setting(("TTM", "TLL"), min_items=1, max_items=2,
+                                                           doc=_SENTENCES)
+    send_acquiring: bool = setting(False, doc="also report acquiring (Q) tracks")
+    proprietary: ProprietaryConfig = setting(default_factory=ProprietaryConfig)
+
+
+@dataclass(frozen=True)
+class UdpConfig:
+    enabled: bool = setting(False, doc="IEC 61162-450 over UDP multicast")
+    group: str = setting("239.192.0.2", check=_multicast, doc="multicast group (TGTD: target data)")
+    port: int = setting(60002, min=1, max=65535, doc="UDP port")
+    interface: str = setting("0.0.0.0", check=_ipv4, doc="local address of the sending interface")
+    ttl: int = setting(1, min=0, max=255, doc="multicast TTL")
+    source: str = setting("RA0001", pattern="[A-Z][A-Z0-9][0-9]{4}", doc="tag block s: (talker + 4 digits)")
+    sentences: tuple[Literal["TTM", "TLL"], ...] = setting(("TTM", "TLL"), min_items=1, max_items=2,
+                                                           doc=_SENTENCES)
+
+
+@dataclass(frozen=True)
+class ModbusTcp:
+    enabled: bool = setting(True, doc="serve Modbus TCP")
+    host: str = setting("127.0.0.1", check=_ipv4, doc="listen address (0.0.0.0: all interfaces)")
+    port: int = setting(1502, min=1, max=65535, doc="TCP port (502 needs CAP_NET_BIND_SERVICE)")
+
+
+@dataclass(frozen=True)
+class ModbusRtu:
+    enabled: bool = setting(False, doc="serve Modbus RTU on a serial line")
+    url: str = setting("/dev/ttyS2", doc="serial port (pyserial URL)")
+    baud: int = setting(19200, choices=BAUD_RATES, doc="baud rate")
+    parity: Literal["N", "E", "O"] = setting("E", doc="parity (Modbus serial default: 8E1)")
+    stopbits: Literal[1, 2] = setting(1, doc="stop bits (2 when parity is N)")
+    unit: int = setting(1, min=1, max=247, doc="RTU unit (slave) address")
+
+
+@dataclass(frozen=True)
+class ModbusConfig:
+    tcp: ModbusTcp = setting(default_factory=ModbusTcp)
+    rtu: ModbusRtu = setting(default_factory=ModbusRtu)
+    word_order: Literal["high_first", "low_first"] = setting("high_first", doc="32-bit values: ABCD or CDAB")
+
+
+@dataclass(frozen=True)
+class OutputsConfig:
+    nmea: tuple[NmeaPort, ...] = setting((), doc="serial NMEA 0183 ports")
+    udp: UdpConfig = setting(default_factory=UdpConfig)
+    modbus: ModbusConfig = setting(default_factory=ModbusConfig)
+    tracks_csv: str | None = setting(None, doc="append every fix to this CSV file")
+
+
+# ---------------------------------------------------------------- health, logging, top level
+
+
+@dataclass(frozen=True)
+class LedsConfig:
+    kind: Literal["none", "sysfs", "virtual"] = setting("virtual", doc="status LEDs driver")
+    ok: str = setting("mast:green:ok", doc="LED name under /sys/class/leds (kind sysfs)")
+    fault: str = setting("mast:red:fault", doc="LED name under /sys/class/leds (kind sysfs)")
+
+
+@dataclass(frozen=True)
+class HealthConfig:
+    stale_s: float = setting(2.0, positive=True, max=600.0, doc="a stage silent this long is STALLED")
+    min_fps: float = setting(5.0, min=0.0, doc="below this frame rate the appliance is DEGRADED")
+    watchdog: bool = setting(True, doc="send WATCHDOG=1 to systemd while all stages are fresh")
+    leds: LedsConfig = setting(default_factory=LedsConfig)
+
+
+@dataclass(frozen=True)
+class LoggingConfig:
+    level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = setting("INFO", doc="log level")
+
+
+@dataclass(frozen=True)
+class AppConfig:
+    version: Literal[1] = setting(1, doc="configuration format version")
+    cameras: V4l2Cameras | ReplayCameras | VirtualCameras = setting(
+        default_factory=VirtualCameras, doc="frame source; `kind` picks v4l2, replay or virtual")
+    calibration: Calibration | None = setting(
+        None, load=_load_calibration_ref, accepts="a file path or a calibration mapping, or null",
+        doc="calibration YAML (path relative to this file, or inline); null: the scenario's/recording's")
+    site: Site | None = setting(None, load=_load_site, accepts="a site mapping or null",
+                                doc="lat_deg, lon_deg, height_m, heading_deg; overrides the calibration's")
+    pipeline: PipelineConfig = setting(default_factory=PipelineConfig)
+    outputs: OutputsConfig = setting(default_factory=OutputsConfig)
+    health: HealthConfig = setting(default_factory=HealthConfig)
+    logging: LoggingConfig = setting(default_factory=LoggingConfig)
+
+    @property
+    def effective_site(self) -> Site | None:
+        """The configured site, else the calibration's."""
+        if self.site is not None:
+            return self.site
+        return None if self.calibration is None else self.calibration.site
+
+
+def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
+    """Validate a parsed configuration mapping, resolve its relative paths, check cross-key rules."""
+    cfg = load_dataclass(AppConfig, data, file)
+    cams = cfg.cameras
+    if isinstance(cams, V4l2Cameras):
+        if cfg.calibration is None:
+            raise ConfigError(file, "calibration", "a calibration (file path or mapping) for v4l2 cameras")
+        if cams.left == cams.right:
+            raise ConfigError(file, "cameras.right", "a device other than cameras.left", cams.right)
+    elif isinstance(cams, ReplayCameras):
+        cfg = replace(cfg, cameras=replace(cams, path=str(_resolve(file, cams.path))))
+    elif cams.scenario.endswith((".yaml", ".yml")):
+        cfg = replace(cfg, cameras=replace(cams, scenario=str(_resolve(file, cams.scenario))))
+    ports = [p.url for p in cfg.outputs.nmea]
+    if cfg.outputs.modbus.rtu.enabled:
+        ports.append(cfg.outputs.modbus.rtu.url)
+    for i, url in enumerate(ports):
+        if url in ports[:i]:
+            key = f"outputs.nmea[{i}].url" if i < len(cfg.outputs.nmea) else "outputs.modbus.rtu.url"
+            raise ConfigError(file, key, "a serial port not used by another output", url)
+    if cfg.outputs.tracks_csv is not None:
+        outputs = replace(cfg.outputs, tracks_csv=str(_resolve(file, cfg.outputs.tracks_csv)))
+        cfg = replace(cfg, outputs=outputs)
+    return cfg
+
+
+def load_config(path: str | Path) -> AppConfig:
+    """Read and validate the appliance configuration file."""
+    return config_from_dict(load_yaml(path), path)
+
+
+def schema_markdown() -> str:
+    """The configuration reference table for the README."""
+    return markdown_table(AppConfig)
+
+
+__all__ = ["AppConfig", "HealthConfig", "LedsConfig", "LoggingConfig", "ModbusConfig", "ModbusRtu",
+           "ModbusTcp", "NmeaPort", "OutputsConfig", "PipelineConfig", "ProprietaryConfig", "ReplayCameras",
+           "TriggerConfig", "UdpConfig", "V4l2Cameras", "VirtualCameras", "config_from_dict", "load_config",
+           "schema_markdown"]
