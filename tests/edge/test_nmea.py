@@ -241,12 +241,17 @@ def check_ttm(line: str, fix: ShipFix, number: int) -> None:
         assert abs(distance - expected_nm) <= 0.0005 + 1e-12
         assert distance > 0 or not live  # OpenCPN: 0 means lost
     assert msg.target_number == gps.targetnum == number
-    assert close_angle(float(msg.bearing), fix.bearing_deg) and close_angle(gps.targetbearing, fix.bearing_deg)
+    assert close_angle(float(msg.bearing), fix.bearing_deg) and close_angle(
+        gps.targetbearing, fix.bearing_deg
+    )
     assert msg.brg_ref == msg.cog_unit == "T" and msg.dist_unit == "N" and msg.acquisition == "A"
     if fix.sog_kn is None:
         assert msg.speed is None and gps.targetspeed == ""
     else:
-        assert abs(float(msg.speed) - fix.sog_kn) <= 0.05 + 1e-9 and abs(gps.targetspeed - fix.sog_kn) <= 0.05 + 1e-9
+        assert (
+            abs(float(msg.speed) - fix.sog_kn) <= 0.05 + 1e-9
+            and abs(gps.targetspeed - fix.sog_kn) <= 0.05 + 1e-9
+        )
     if fix.cog_deg is None:
         assert msg.cog is None and gps.targetcourse == ""
     else:
@@ -285,7 +290,9 @@ def check_txy(line: str, fix: ShipFix, number: int) -> None:
 
 @settings(max_examples=300, deadline=None)
 @given(fixes(), st.integers(1, 99))
-def test_every_sentence_parses_with_pynmea2_and_pynmeagps_and_obeys_opencpn(fix: ShipFix, number: int) -> None:
+def test_every_sentence_parses_with_pynmea2_and_pynmeagps_and_obeys_opencpn(
+    fix: ShipFix, number: int
+) -> None:
     lines = nmea.track_sentences(fix, number, nmea.KINDS)
     for line, check in zip(lines, (check_ttm, check_tll, check_txy), strict=True):
         assert len(line) <= nmea.MAX_SENTENCE_CHARS and line.endswith("\r\n")

@@ -1,0 +1,319 @@
+"""NMEA output scheduling: which track updates go out now, inside the byte budget of the line.
+
+Every processing step hands the live fixes to `NmeaScheduler.step()`, which
+returns the track updates (groups of TTM/TLL/TXY sentences, one group per
+target) to send now. Rules (OUTPUTS.md):
+
+- Byte budget: a token bucket filled at `bytes_per_s` (for a serial line the
+  baud rate divided by the bits per character, e.g. 10 for 8N1, times a
+  `utilisation` margin) and capped at ``max(0.25 s of budget, one largest
+  group)``. Over any interval T the bytes handed out are at most
+  ``bytes_per_s * T + capacity``, so nothing piles up behind a slow line.
+- Fair refresh: live tracks go oldest-refreshed first (never-sent first, ties
+  by track id), each at most once per `min_refresh_s`. A group that does not
+  fit waits; nothing smaller jumps ahead of it.
+- Priority: a dropped track (status L, or absent from the step's fixes) gets
+  its last fix re-sent with status L `lost_repeats` times `lost_interval_s`
+  apart, before any live update. After the last one its number goes into
+  quarantine (`edge.targets`), so the number stays off the wire >= 60 s.
+- A track enters NMEA once it is T (Q too only if `send_acquiring`); target
+  numbers come from `TargetNumbers`. With all numbers busy a new track waits
+  (counted, logged once) and is served in track-id order when one frees.
+- A fix that cannot be framed (e.g. a field too long for 82 characters) is
+  refused and counted, never sent half-right.
+
+The clock (monotonic seconds) is injectable; the scheduler itself does no
+I/O, so its results are deterministic for a given clock. `NmeaSerialOutput`
+joins it to a serial port (`drivers.serial_port`); the IEC 61162-450 UDP
+output is in `edge.outputs.nmea_udp`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from drivers.serial_port import PySerialPort, SerialPortBase
+from edge.fix import ShipFix, TrackStatus
+from edge.nmea import KINDS, MAX_SENTENCE_CHARS, NmeaError, check_manufacturer, check_talker, track_sentences
+from edge.targets import TargetNumbers
+
+if TYPE_CHECKING:
+    from edge.config import NmeaPort, UdpConfig
+
+log = logging.getLogger(__name__)
+
+BURST_S = 0.25  # token-bucket depth in seconds of budget (at least one whole group)
+
+
+@dataclass(frozen=True, kw_only=True)
+class NmeaSchedule:
+    """What an NMEA output sends and how often (shared by the serial and UDP outputs)."""
+
+    sentences: tuple[str, ...] = ("TTM", "TLL")  # any of KINDS; TXY = proprietary x/y, off by default
+    talker: str = "RA"  # RA radar, II, U0..U9
+    manufacturer: str = "XXX"  # TXY's NMEA manufacturer code: XXX is a placeholder, get a real one
+    send_acquiring: bool = False  # also send tentative tracks, with status Q
+    max_target_number: int = 99  # numbers 1..N; above 99 they have 3 digits
+    min_refresh_s: float = 1.0  # never resend one track sooner than this
+    lost_repeats: int = 3  # times a dropped track is sent with status L
+    lost_interval_s: float = 1.0  # time between those L sentences
+    quarantine_s: float = 60.0  # a number stays unused this long after its last L
+
+    def __post_init__(self) -> None:
+        if not self.sentences or set(self.sentences) - set(KINDS):
+            raise ValueError(f"sentences must be a non-empty subset of {KINDS}, got {self.sentences}")
+        check_talker(self.talker)
+        check_manufacturer(self.manufacturer)
+        if self.lost_repeats < 1 or min(self.min_refresh_s, self.lost_interval_s, self.quarantine_s) < 0:
+            raise ValueError(f"need lost_repeats >= 1 and non-negative times: {self}")
+
+
+DEFAULT_SCHEDULE = NmeaSchedule()
+
+
+@dataclass(frozen=True, slots=True)
+class SchedulerStats:
+    groups_sent: int  # track updates handed out (live and lost)
+    lost_groups_sent: int  # of which status-L repeats
+    bytes_sent: int
+    refused: int  # fixes that could not be framed (NmeaError)
+    tracks_waited: int  # tracks that found all target numbers busy
+    live: int  # live tracks known to the scheduler
+    waiting: int  # live tracks without a number right now
+    lost_pending: int  # dropped tracks whose L repeats are not all sent yet
+
+
+@dataclass(slots=True)
+class _Live:
+    fix: ShipFix
+    number: int | None
+    last_sent_s: float = -math.inf
+
+
+@dataclass(slots=True)
+class _Lost:
+    fix: ShipFix  # the last fix, with status L
+    number: int
+    remaining: int
+    due_s: float
+
+
+class NmeaScheduler:
+    """Round-robin track updates inside a byte budget; see the module docstring for the rules."""
+
+    def __init__(
+        self,
+        schedule: NmeaSchedule,
+        bytes_per_s: float | None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if bytes_per_s is not None and not bytes_per_s > 0:
+            raise ValueError(f"bytes_per_s must be > 0 or None (unlimited), got {bytes_per_s}")
+        self.schedule = schedule
+        self.bytes_per_s = bytes_per_s
+        self.capacity = (
+            math.inf
+            if bytes_per_s is None
+            else max(bytes_per_s * BURST_S, MAX_SENTENCE_CHARS * len(schedule.sentences))
+        )
+        self.numbers = TargetNumbers(schedule.max_target_number, schedule.quarantine_s)
+        self._clock = clock
+        self._tokens = self.capacity
+        self._last_s: float | None = None
+        self._live: dict[int, _Live] = {}
+        self._lost: dict[int, _Lost] = {}  # by track id
+        self._waited: set[int] = set()
+        self._counts = dict.fromkeys(("groups_sent", "lost_groups_sent", "bytes_sent", "refused"), 0)
+
+    def step(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
+        """Take this step's live fixes; return the groups of sentences to send now, in order."""
+        now_s = self._clock()
+        self._refill(now_s)
+        self._update(fixes, now_s)
+        out: list[tuple[str, ...]] = []
+        for lost in sorted(self._lost.values(), key=lambda e: (e.due_s, e.number)):
+            if lost.due_s > now_s:
+                break
+            group = self._render(lost.fix, lost.number)
+            if group and not self._spend(group, out):
+                return out
+            self._counts["lost_groups_sent"] += bool(group)
+            lost.remaining -= 1
+            lost.due_s = now_s + self.schedule.lost_interval_s
+            if lost.remaining <= 0 or not group:
+                del self._lost[lost.fix.track_id]
+                self.numbers.retire(lost.number, now_s)
+        due = [t for t in self._live.values() if t.number is not None
+               and now_s - t.last_sent_s >= self.schedule.min_refresh_s]  # fmt: skip
+        for track in sorted(due, key=lambda t: (t.last_sent_s, t.fix.track_id)):
+            group = self._render(track.fix, track.number)
+            if group and not self._spend(group, out):
+                break
+            track.last_sent_s = now_s
+        return out
+
+    def stats(self) -> SchedulerStats:
+        return SchedulerStats(
+            **self._counts,
+            tracks_waited=len(self._waited),
+            live=len(self._live),
+            waiting=sum(t.number is None for t in self._live.values()),
+            lost_pending=len(self._lost),
+        )
+
+    def _refill(self, now_s: float) -> None:
+        if self._last_s is not None and self.bytes_per_s is not None:
+            elapsed_s = max(0.0, now_s - self._last_s)
+            self._tokens = min(self.capacity, self._tokens + elapsed_s * self.bytes_per_s)
+        self._last_s = now_s
+
+    def _spend(self, group: tuple[str, ...], out: list[tuple[str, ...]]) -> bool:
+        cost = sum(len(line) for line in group)
+        if cost > self._tokens:
+            return False
+        self._tokens -= cost
+        out.append(group)
+        self._counts["groups_sent"] += 1
+        self._counts["bytes_sent"] += cost
+        return True
+
+    def _render(self, fix: ShipFix, number: int) -> tuple[str, ...]:
+        cfg = self.schedule
+        try:
+            return tuple(track_sentences(fix, number, cfg.sentences, talker=cfg.talker,
+                                         manufacturer=cfg.manufacturer, digits=self.numbers.digits))
+        except NmeaError as exc:
+            if not self._counts["refused"]:
+                log.warning("NMEA: track %d refused (counted, logged once): %s", fix.track_id, exc)
+            self._counts["refused"] += 1
+            return ()
+
+    def _update(self, fixes: Iterable[ShipFix], now_s: float) -> None:
+        latest = {fix.track_id: fix for fix in fixes}
+        for track_id in list(self._live):
+            fix = latest.get(track_id)
+            if fix is None or fix.status is TrackStatus.LOST:
+                self._drop(track_id, fix, now_s)
+        wanted = {TrackStatus.TRACKING, TrackStatus.ACQUIRING} if self.schedule.send_acquiring else {
+            TrackStatus.TRACKING}  # fmt: skip
+        for track_id in sorted(latest):
+            fix = latest[track_id]
+            track = self._live.get(track_id)
+            if track is not None:
+                track.fix = fix
+            elif fix.status in wanted:
+                self._lost.pop(track_id, None)  # a dropped track that came back keeps its number
+                track = self._live[track_id] = _Live(fix, None)
+            else:
+                continue
+            if track.number is None:
+                track.number = self.numbers.assign(track_id, now_s)
+                if track.number is None:
+                    if not self._waited:
+                        log.warning("NMEA: all %d target numbers busy; new tracks wait (logged once)",
+                                    self.numbers.max_number)
+                    self._waited.add(track_id)
+
+    def _drop(self, track_id: int, fix: ShipFix | None, now_s: float) -> None:
+        track = self._live.pop(track_id)
+        number = self.numbers.release(track_id)
+        if number is None:
+            return
+        last = fix if fix is not None else dataclasses.replace(track.fix, status=TrackStatus.LOST)
+        self._lost[track_id] = _Lost(last, number, self.schedule.lost_repeats, now_s)
+
+
+def serial_bytes_per_s(baud: int, bytesize: int = 8, parity: str = "N", stopbits: float = 1) -> float:
+    """Characters per second of an asynchronous serial line: baud / (start + data + parity + stop bits)."""
+    bits = 1 + bytesize + (0 if parity == "N" else 1) + stopbits
+    return baud / bits
+
+
+class NmeaSerialOutput:
+    """Scheduler + serial port. `publish()` is the processing thread's only call; it never blocks.
+
+    The byte budget is ``utilisation`` times the line's character rate (baud
+    over start + data + parity + stop bits). Each track update (TTM+TLL...) is
+    one queue entry, so a full queue drops whole updates, oldest first. Pass
+    `port` to use a `VirtualSerialPort`; by default a `PySerialPort` is built
+    from `url` and the framing.
+    """
+
+    def __init__(
+        self,
+        url: str,
+        schedule: NmeaSchedule = DEFAULT_SCHEDULE,
+        *,
+        baud: int = 38400,
+        bytesize: int = 8,
+        parity: str = "N",
+        stopbits: float = 1,
+        xonxoff: bool = False,
+        rtscts: bool = False,
+        utilisation: float = 0.9,
+        queue_max: int = 32,
+        write_timeout_s: float = 1.0,
+        port: SerialPortBase | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if not 0 < utilisation <= 1:
+            raise ValueError(f"utilisation must be in (0, 1], got {utilisation}")
+        self.bytes_per_s = utilisation * serial_bytes_per_s(baud, bytesize, parity, stopbits)
+        self.scheduler = NmeaScheduler(schedule, self.bytes_per_s, clock)
+        self.port = port if port is not None else PySerialPort(
+            url, baudrate=baud, bytesize=bytesize, parity=parity, stopbits=stopbits, xonxoff=xonxoff,
+            rtscts=rtscts, write_timeout_s=write_timeout_s, queue_max=queue_max,
+        )  # fmt: skip
+
+    @classmethod
+    def from_config(cls, cfg: NmeaPort, **kwargs: Any) -> NmeaSerialOutput:
+        """Build from one `outputs.nmea[i]` entry of the appliance configuration."""
+        return cls(cfg.url, schedule_from_config(cfg), baud=cfg.baud, bytesize=cfg.bytesize,
+                   parity=cfg.parity, stopbits=cfg.stopbits, **kwargs)
+
+    def start(self) -> NmeaSerialOutput:
+        self.port.start()
+        return self
+
+    def publish(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
+        """Schedule this step's fixes and queue what fits the budget; returns the queued groups."""
+        groups = self.scheduler.step(fixes)
+        for group in groups:
+            self.port.submit("".join(group).encode("ascii"))
+        return groups
+
+    def close(self) -> None:
+        self.port.close()
+
+    def health(self) -> tuple[str | None, dict[str, int]]:
+        """(fault text or None, counters) for `HealthMonitor.beat(..., fault=, counters=)`."""
+        port, sched = self.port.stats(), self.scheduler.stats()
+        fault = (
+            "serial port lost" if port.fault
+            else "serial port stalled" if port.stalled
+            else "serial port not open" if not port.connected
+            else None
+        )  # fmt: skip
+        counters = {
+            "nmea_groups": sched.groups_sent, "nmea_refused": sched.refused, "nmea_waiting": sched.waiting,
+            "serial_bytes": port.written_bytes, "serial_dropped": port.dropped,
+            "serial_timeouts": port.write_timeouts, "serial_errors": port.errors,
+        }  # fmt: skip
+        return fault, counters
+
+
+def schedule_from_config(cfg: NmeaPort | UdpConfig) -> NmeaSchedule:
+    """The `NmeaSchedule` of an `outputs.nmea[i]` or `outputs.udp` configuration entry."""
+    sentences, manufacturer = tuple(cfg.sentences), "XXX"
+    proprietary = getattr(cfg, "proprietary", None)
+    if proprietary is not None and proprietary.enabled:
+        sentences, manufacturer = (*sentences, "TXY"), proprietary.manufacturer
+    talker = cfg.talker if hasattr(cfg, "talker") else cfg.source[:2]  # UDP: the talker of its s: source
+    return NmeaSchedule(sentences=sentences, talker=talker, manufacturer=manufacturer,
+                        send_acquiring=getattr(cfg, "send_acquiring", False))
