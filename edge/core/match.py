@@ -147,7 +147,9 @@ def second_best_ratio(costs: np.ndarray, k0: int) -> float:
         return math.inf
     second = float(others.min())
     best = float(c[k0])
-    return math.inf if best <= 0 else second / best
+    if best <= 0:
+        return math.inf if second > 0 else 1.0      # two perfect matches: ambiguous
+    return second / best
 
 
 def search_range(x_int: int, width: int, window: int, min_disparity: int, max_disparity: int,

@@ -22,6 +22,8 @@ formed in Q10 and rounded once to Q8. Worst-case difference from the float refer
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from edge.core.fixedpoint import FIT_BITS, SUBPIX_BITS, div_round, round_shift
@@ -100,6 +102,32 @@ def symmetric_float(da: float, db: float, ra: float, rb: float) -> float:
     return 0.25 * (da + db + ra + rb)
 
 
+def contrast_gain_q8(energy_left: int, energy_right: int) -> int:
+    """sqrt(energy_left / energy_right) in Q8 (integer square root), clamped to [1/2, 2]."""
+    if energy_left <= 0 or energy_right <= 0:
+        return 1 << SUBPIX_BITS
+    g_q8 = math.isqrt(((energy_left << (4 * SUBPIX_BITS)) + energy_right // 2) // energy_right)
+    return min(max(round_shift(g_q8, SUBPIX_BITS), 1 << (SUBPIX_BITS - 1)), 2 << SUBPIX_BITS)
+
+
+def _equalise_contrast(regs: np.ndarray, w: int, as_float: bool) -> np.ndarray:
+    """Scale the right region so its centre window has the left one's zero-mean energy.
+
+    ZSSD removes an offset but not a gain: with R = g*L the fitted minimum of sum (L' - g R')^2
+    moves with how sum R'^2 varies across candidates. Matching the contrast first (integer:
+    left x 256, right x g in Q8) makes the half-pixel passes gain-invariant."""
+    centre = regs[:, :, 2:2 + w]
+    n = w * w
+    energy = n * (centre * centre).sum(axis=(1, 2)) - centre.sum(axis=(1, 2)) ** 2
+    if as_float:
+        if energy[0] <= 0 or energy[1] <= 0:
+            return regs
+        gain = min(max(float(np.sqrt(energy[0] / energy[1])), 0.5), 2.0)
+        return regs * np.array([1.0, gain])[:, None, None]
+    g_q8 = contrast_gain_q8(int(energy[0]), int(energy[1]))
+    return regs * np.array([1 << SUBPIX_BITS, g_q8], dtype=np.int64)[:, None, None]
+
+
 def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int, cost: str,
                        as_float: bool = False) -> tuple[np.ndarray, ...]:
     """Cost curves of the four half-pixel passes around the integer disparity d0, in one
@@ -115,6 +143,8 @@ def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d
     xr = xl - d0
     regs = np.stack((left_band[:, xl - h - 2:xl + h + 4], right_band[:, xr - h - 2:xr + h + 4]))
     regs = regs.astype(np.float64 if as_float else np.int64)                # (2, w, w+5)
+    if cost != "ssd":
+        regs = _equalise_contrast(regs, w, as_float)
     cols = np.arange(5)[:, None] + np.arange(w)[None, :]                    # shifts p = 0..4
     half = (regs[:, :, :-1] + regs[:, :, 1:])[:, :, cols]                   # (2, w, 5, w) Lh, Rh
     dbl = 2 * regs[:, :, cols[1:]]                                          # (2, w, 4, w) 2L, 2R

@@ -1,0 +1,116 @@
+"""Sub-pixel fits: integer parabola and half-pixel cancellation vs exact answers and float references,
+pixel-locking removal on exact-shift renders."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from edge.core import subpixel as sp
+from edge.core.costs import cost_curve_reference
+from edge.core.fixedpoint import FIT_ONE, SUBPIX_ONE
+from edge.core.match import match_point
+from edge.core.synth import Condition, sweep
+
+
+@given(st.integers(1, 1 << 20), st.integers(-512, 512), st.integers(0, 1 << 30))
+def test_parabola_recovers_vertex_of_a_true_parabola(a: int, x0_q10: int, c0: int) -> None:
+    # c(x) = a * (1024 x - x0)^2 + c0 sampled at x = -1, 0, 1 (exact integers)
+    c = [a * (1024 * x - x0_q10) ** 2 + c0 for x in (-1, 0, 1)]
+    if min(c) != c[1]:
+        return                                   # vertex not bracketed by the centre sample
+    assert sp.parabola_q(*c) == x0_q10
+
+
+@given(st.integers(0, 1 << 36), st.integers(0, 1 << 36), st.integers(0, 1 << 36))
+def test_parabola_q_matches_float_within_half_lsb(cm: int, c0: int, cp: int) -> None:
+    q, f = sp.parabola_q(cm, c0, cp), sp.parabola_float(cm, c0, cp)
+    if q is None or f is None:
+        assert q is None and (f is None or abs(abs(f) - 0.5) < 1e-9)
+        return
+    assert abs(q / FIT_ONE - f) <= 0.5 / FIT_ONE + 1e-12
+
+
+def test_parabola_rejects_non_minimum() -> None:
+    assert sp.parabola_q(5, 5, 5) is None        # flat: den = 0
+    assert sp.parabola_q(1, 9, 3) is None        # maximum
+    assert sp.parabola_q(0, 1, 10) is None       # vertex beyond -1/2
+
+
+@given(st.lists(st.integers(-(1 << 20), 1 << 20), min_size=4, max_size=4))
+def test_cancellation_rounding_within_one_q8_lsb(fits: list[int]) -> None:
+    a, b, ra, rb = fits
+    f = [v / FIT_ONE for v in fits]
+    assert abs(sp.cancel_q8(a, b) / SUBPIX_ONE - sp.cancel_float(f[0], f[1])) < 1 / SUBPIX_ONE
+    assert abs(sp.symmetric_q8(a, b, ra, rb) / SUBPIX_ONE - sp.symmetric_float(*f)) < 1 / SUBPIX_ONE
+
+
+def _explicit_curve(t_img: np.ndarray, b_img: np.ndarray, x: int, ds: range, h: int) -> np.ndarray:
+    """Independent route: slice each candidate window of pre-built images, plain int64 SSD."""
+    t = t_img[:, x - h:x + h + 1]
+    return np.array([cost_curve_reference(t, b_img[:, x - d - h:x - d + h + 1], "ssd")[0] for d in ds])
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(3, 9))
+def test_cancellation_costs_equal_explicit_half_pixel_images(seed: int, d0: int) -> None:
+    rng = np.random.default_rng(seed)
+    w, h = 9, 4
+    left = rng.integers(0, 256, (w, 40), dtype=np.uint8)
+    right = rng.integers(0, 256, (w, 40), dtype=np.uint8)
+    xl = 22
+    lh = left[:, :-1].astype(np.int64) + left[:, 1:]
+    rh = right[:, :-1].astype(np.int64) + right[:, 1:]
+    a, b, ra, rb = sp.cancellation_costs(left, right, xl, d0, "ssd")
+    np.testing.assert_array_equal(a, _explicit_curve(lh, rh, xl, range(d0 - 2, d0 + 3), h))
+    np.testing.assert_array_equal(b, _explicit_curve(lh, 2 * right.astype(np.int64), xl,
+                                                     range(d0 - 2, d0 + 2), h))
+    xr = xl - d0
+    np.testing.assert_array_equal(ra, _explicit_curve(rh, lh, xr, range(-d0 - 2, -d0 + 3), h))
+    np.testing.assert_array_equal(rb, _explicit_curve(rh, 2 * left.astype(np.int64), xr,
+                                                      range(-d0 - 2, -d0 + 2), h))
+
+
+def test_contrast_equalisation_makes_costs_gain_invariant() -> None:
+    rng = np.random.default_rng(5)
+    left = rng.integers(10, 150, (15, 60), dtype=np.uint8)     # gains stay inside [1/2, 2]
+    right = rng.integers(10, 100, (15, 60), dtype=np.uint8)
+    doubled = (2 * right).astype(np.uint8)          # exact gain 2 on the right camera
+    for as_float in (False, True):
+        base = sp.cancellation_costs(left, right, 30, 6, "zssd", as_float)
+        gained = sp.cancellation_costs(left, doubled, 30, 6, "zssd", as_float)
+        for c1, c2 in zip(base, gained, strict=True):
+            # the float gain is exact; the integer one is quantised to Q8 (relative 2^-9)
+            np.testing.assert_allclose(c1 / c1.sum(), c2 / c2.sum(), rtol=1e-12 if as_float else 2e-3)
+        plain = sp.cancellation_costs(left, doubled, 30, 6, "ssd", as_float)
+        assert not np.allclose(plain[0] / plain[0].sum(), base[0] / base[0].sum())
+    assert sp.contrast_gain_q8(4 * 10**6, 10**6) == 512
+    assert abs(sp.contrast_gain_q8(10**6, 1_210_000) - 256 / 1.1) <= 0.5
+
+
+def test_integer_widths_for_15x15_worst_case() -> None:
+    # 9-bit sums, 15x15: ZSSD <= N * N * 510^2, den = 2(cm - 2c0 + cp) <= 4 max; num << 10 in int64
+    n = 15 * 15
+    worst = n * n * 510**2
+    assert (4 * worst).bit_length() <= 37
+    assert ((2 * worst) << 10).bit_length() <= 47
+
+
+def _stats(condition: Condition, subpixel: str, cost: str = "zssd") -> tuple[float, float]:
+    m = functools.partial(match_point, max_disparity=12, subpixel=subpixel, cost=cost,
+                          noise_dn=condition.noise_dn)
+    s = sweep(condition, range(9000, 9012), m, n_fractions=16)
+    e = s.errors
+    assert np.isfinite(e).all()
+    return float(np.sqrt((e**2).mean())), float(np.abs(e.mean(axis=0)).max())
+
+
+def test_cancellation_removes_pixel_locking() -> None:
+    for cond in (Condition("tex", noise_dn=0.5), Condition("sharp", kind="sharp", psf_sigma_px=0.25,
+                                                             noise_dn=0.5)):
+        rms_p, bias_p = _stats(cond, "parabola", "ssd")
+        rms_c, bias_c = _stats(cond, "cancel")
+        assert bias_p > 0.04                      # the thesis method locks to whole pixels
+        assert bias_c < bias_p / 4 and rms_c < rms_p / 3
