@@ -57,7 +57,8 @@ class ModbusStats:
     requests: int  # requests that reached the register image
     exceptions: int  # of those, answered with an exception
     garbage: int  # malformed frames or bytes dropped
-    clients: int  # connections open now (TCP) / port open (RTU)
+    clients: int  # connections open now (TCP); 1 while the port is open (RTU)
+    port_losses: int  # RTU: times the port went away (each followed by reopen attempts)
 
 
 class _Counters:
@@ -65,7 +66,7 @@ class _Counters:
 
     def __init__(self, name: str) -> None:
         self.name = name
-        self.requests = self.exceptions = self.garbage = self.clients = 0
+        self.requests = self.exceptions = self.garbage = self.clients = self.port_losses = 0
 
     def count_garbage(self) -> None:
         if self.garbage == 0:
@@ -74,7 +75,7 @@ class _Counters:
         self.garbage += 1
 
     def stats(self) -> ModbusStats:
-        return ModbusStats(self.requests, self.exceptions, self.garbage, self.clients)
+        return ModbusStats(self.requests, self.exceptions, self.garbage, self.clients, self.port_losses)
 
 
 class RegisterImage:
@@ -244,16 +245,23 @@ class _GuardedRtuFramer(_GuardedFramer, FramerRTU):
 
 
 class _ThreadedServer(ModbusServer):
-    """Runs a pymodbus server on an asyncio loop in a thread of its own."""
+    """Runs a pymodbus server on an asyncio loop in a thread of its own.
+
+    With `_reopen_on_loss` (RTU), losing the port (unplugged adapter, EIO) closes
+    the server, counts `port_losses`, and reopens it with backoff (1 s doubling
+    to 30 s) until the port is back or the server is stopped.
+    """
 
     _framer: type[_GuardedFramer]
+    _reopen_on_loss = False
 
     def __init__(self, name: str, unit: int | None) -> None:
         super().__init__(name)
         self._unit = unit
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._stopping: asyncio.Event | None = None
+        self._wake: asyncio.Event | None = None
+        self._stop_requested = self._port_lost = False
         self._ready = threading.Event()
         self._error: BaseException | None = None
 
@@ -267,6 +275,7 @@ class _ThreadedServer(ModbusServer):
             raise RuntimeError(f"{self._counters.name} already started")
         self._ready.clear()
         self._error = None
+        self._stop_requested = self._port_lost = False
         self._thread = threading.Thread(target=asyncio.run, args=(self._run(),),
                                         name=self._counters.name, daemon=True)
         self._thread.start()
@@ -277,37 +286,78 @@ class _ThreadedServer(ModbusServer):
             raise self._error
 
     def stop(self, timeout_s: float = 5.0) -> None:
-        thread, loop, stopping = self._thread, self._loop, self._stopping
+        thread, loop = self._thread, self._loop
         if thread is None:
             return
-        if loop is not None and stopping is not None and not loop.is_closed():
+        if loop is not None:
             try:
-                loop.call_soon_threadsafe(stopping.set)
+                loop.call_soon_threadsafe(self._signal, "stop")
             except RuntimeError:  # loop already finished (start failed)
                 pass
         thread.join(timeout_s)
-        self._thread = self._loop = self._stopping = None
+        self._thread = self._loop = self._wake = None
+
+    def _signal(self, what: str) -> None:
+        """On the loop thread: note a stop request or a lost port and wake the supervisor."""
+        if what == "stop":
+            self._stop_requested = True
+        else:
+            self._port_lost = True
+        if self._wake is not None:
+            self._wake.set()
 
     def _trace_connect(self, connected: bool) -> None:
-        self._counters.clients += 1 if connected else -1
+        self._counters.clients = max(0, self._counters.clients + (1 if connected else -1))
+        if not connected and self._reopen_on_loss and not self._stop_requested:
+            self._signal("lost")
+
+    async def _open(self) -> ModbusBaseServer:
+        server = self._make_server(_ImageContext(self._serve, self._unit), self._trace_connect)
+        server.framer = partial(self._framer, on_garbage=self._counters.count_garbage, unit=self._unit)
+        await server.serve_forever(background=True)  # RuntimeError if it cannot listen/open
+        return server
 
     async def _run(self) -> None:
         self._loop = asyncio.get_running_loop()
-        self._stopping = asyncio.Event()
+        self._wake = asyncio.Event()
         try:
-            server = self._make_server(_ImageContext(self._serve, self._unit), self._trace_connect)
-            server.framer = partial(self._framer, on_garbage=self._counters.count_garbage,
-                                    unit=self._unit)
-            await server.serve_forever(background=True)
+            server = await self._open()
         except Exception as exc:  # noqa: BLE001 - handed to start()'s caller
             self._error = OSError(f"{self._counters.name}: cannot start: {exc}")
             self._ready.set()
             return
         self._ready.set()
-        try:
-            await self._stopping.wait()
-        finally:
-            await server.shutdown()
+        while True:
+            await self._wake.wait()
+            self._wake.clear()
+            if self._port_lost and not self._stop_requested:
+                self._counters.port_losses += 1
+                log.warning("%s: port lost, reopening with backoff", self._counters.name)
+                await server.shutdown()
+                reopened = await self._reopen()
+                if reopened is None:
+                    return
+                server = reopened
+            if self._stop_requested:
+                await server.shutdown()
+                return
+
+    async def _reopen(self) -> ModbusBaseServer | None:
+        delay_s = 1.0
+        while not self._stop_requested:
+            try:
+                await asyncio.wait_for(self._wake.wait(), delay_s)  # a stop request cuts the wait
+            except TimeoutError:
+                pass
+            self._wake.clear()
+            if self._stop_requested:
+                return None
+            self._port_lost = False
+            try:
+                return await self._open()
+            except Exception:  # noqa: BLE001 - port still missing: retry later
+                delay_s = min(2 * delay_s, 30.0)
+        return None
 
 
 class ModbusTcpServer(_ThreadedServer):
@@ -329,6 +379,7 @@ class ModbusRtuServer(_ThreadedServer):
     """Modbus RTU on a serial port; serial-line default 19200 8E1, parity always explicit."""
 
     _framer = _GuardedRtuFramer
+    _reopen_on_loss = True
 
     def __init__(self, port: str, unit: int = 1, baudrate: int = 19200, parity: str = "E",
                  stopbits: int = 1, bytesize: int = 8) -> None:

@@ -152,24 +152,40 @@ def pty_accepts_parity(path: Path) -> bool:
         return False
 
 
+class PtyPair:
+    """A socat null-modem: `a` for the server, `b` for the client; restartable (port loss)."""
+
+    def __init__(self, tmp_path: Path) -> None:
+        self.a, self.b = tmp_path / "a", tmp_path / "b"
+        self.proc: subprocess.Popen | None = None
+
+    def start(self) -> None:
+        self.proc = subprocess.Popen(["socat", f"pty,raw,echo=0,link={self.a}",
+                                      f"pty,raw,echo=0,link={self.b}"], stderr=subprocess.DEVNULL)
+        deadline = time.monotonic() + 5
+        while not (self.a.exists() and self.b.exists()) and time.monotonic() < deadline:
+            time.sleep(0.02)
+
+    def stop(self) -> None:
+        if self.proc is not None:
+            self.proc.terminate()
+            self.proc.wait(5)
+            self.proc = None
+
+
 @pytest.fixture
 def pty_pair(tmp_path: Path):
-    a, b = tmp_path / "a", tmp_path / "b"
-    proc = subprocess.Popen(["socat", "-d", "-d", f"pty,raw,echo=0,link={a}", f"pty,raw,echo=0,link={b}"],
-                            stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 5
-    while not (a.exists() and b.exists()) and time.monotonic() < deadline:
-        time.sleep(0.02)
-    yield a, b
-    proc.terminate()
-    proc.wait(5)
+    pair = PtyPair(tmp_path)
+    pair.start()
+    yield pair
+    pair.stop()
 
 
 @pytest.mark.parametrize("parity, mbpoll_parity", [("N", "none"), ("E", "even")])
 def test_mbpoll_reads_over_rtu_through_a_pty(pty_pair, parity: str, mbpoll_parity: str) -> None:
-    server_end, client_end = pty_pair
+    server_end, client_end = pty_pair.a, pty_pair.b
     if parity != "N" and not pty_accepts_parity(server_end):
-        pytest.skip("this kernel's pty refuses parity settings (EINVAL); 8E1 cannot be exercised over a pty here")
+        pytest.skip("this kernel's pty refuses parity settings (EINVAL): 8E1 not testable on a pty here")
     server = ModbusRtuServer(str(server_end), unit=5, baudrate=19200, parity=parity)
     server.update(image())
     with server:
@@ -183,6 +199,24 @@ def test_mbpoll_reads_over_rtu_through_a_pty(pty_pair, parity: str, mbpoll_parit
         rc, values, text = mbpoll(*conn[:-1], "6", "-t", "3", "-r", "0", str(client_end))
         assert rc != 0 and not values and "timed out" in text  # another unit's request: silence
         assert server.stats.requests == before and server.stats.clients == 1
+
+
+def test_rtu_reopens_the_port_after_it_was_lost(pty_pair) -> None:
+    server = ModbusRtuServer(str(pty_pair.a), unit=5, parity="N")
+    server.update([11, 22])
+    conn = ["-m", "rtu", "-P", "none", "-a", "5", "-t", "3", "-r", "1", str(pty_pair.b)]
+    with server:
+        assert mbpoll(*conn)[:2] == (0, {1: 22})
+        pty_pair.stop()  # the adapter goes away: reads fail with EIO
+        deadline = time.monotonic() + 5
+        while server.stats.port_losses == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert server.stats.port_losses == 1 and server.stats.clients == 0
+        pty_pair.start()  # ... and comes back under the same name
+        deadline = time.monotonic() + 10
+        while server.stats.clients == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert mbpoll(*conn)[:2] == (0, {1: 22})
 
 
 def test_rtu_defaults_to_19200_8e1_and_passes_settings_to_pymodbus() -> None:
