@@ -123,7 +123,8 @@ def _check_layout() -> None:
         used: set[int] = set()
         for f in (f for f in FIELDS if f.block == block):
             cells = set(range(f.offset, f.offset + f.words))
-            assert not cells & used and max(cells) < size, f"{f.name} overlaps or leaves {block}"
+            if cells & used or max(cells) >= size:
+                raise RuntimeError(f"register map: {f.name} overlaps another field or leaves {block}")
             used |= cells
 
 
@@ -339,7 +340,8 @@ def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
         f"registers (FC3, 40001 + address); addresses are 0-based. The map covers 0–{size - 1} "
         f"without gaps (N = {max_tracks} slots by default); writes and addresses outside it get "
         "exception 02. Slot k starts at T = 100 + 20·k. Stored value = physical value / scale, "
-        "rounded; 32-bit values high word first unless WORD_ORDER says otherwise.",
+        "rounded; an empty \"Not available\" cell means the value is always valid; 32-bit values "
+        "high word first unless WORD_ORDER says otherwise.",
         "",
         "| Address | Name | Type | Scale | Unit | Not available | Description |",
         "|---|---|---|---|---|---|---|",
