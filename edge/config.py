@@ -58,7 +58,14 @@ def _load_calibration_ref(value: Any, file: Any, key: str) -> Calibration | None
     if value is None:
         return None
     if isinstance(value, str):
-        return load_calibration(_resolve(file, value))
+        path = _resolve(file, value)
+        try:
+            return load_calibration(path)
+        except ConfigError as exc:
+            if exc.key:  # a mistake inside the calibration file: that file and key are the news
+                raise
+            found = f"{path}: {exc.found}" if exc.found is not None else str(path)
+            raise ConfigError(file, key, f"a calibration file ({exc.expected})", found) from None
     if isinstance(value, dict):
         return calibration_from_dict(value, file, key)
     raise ConfigError(file, key, "a calibration file path or an inline calibration mapping", value)

@@ -113,7 +113,8 @@ def load_yaml(path: str | Path) -> Any:
 def load_dataclass(cls: type[T], data: Any, file: str | Path | None, key_prefix: str = "") -> T:
     """Build `cls` (a dataclass) from parsed YAML `data`; errors name `file` and the key path."""
     if not isinstance(data, Mapping):
-        raise ConfigError(file, key_prefix or "<top>", "a mapping (key: value lines)", _kind(data))
+        found = "an empty document" if data is None else _kind(data)
+        raise ConfigError(file, key_prefix or "<top>", "a mapping (key: value lines)", found)
     return _build(cls, data, file, key_prefix, {})
 
 
@@ -330,7 +331,10 @@ def describe(tp: Any, meta: Mapping[str, Any] | None = None) -> str:
             kinds = {_plural(describe(a, item_meta)) for a in args}
             return f"a list of {len(args)} {' / '.join(sorted(kinds))}"
         lo, hi = meta.get("min_items", 0), meta.get("max_items")
-        count = f"{lo}" if lo == hi else f"{lo}..{hi}" if hi is not None else f"at least {lo}" if lo else ""
+        if hi is None:
+            count = f"at least {lo}" if lo else ""
+        else:
+            count = f"{lo}" if lo == hi else f"at most {hi}" if lo == 0 else f"{lo}..{hi}"
         return f"a list of {count + ' ' if count else ''}{_plural(describe(args[0], item_meta))}"
     if origin is dict:
         return "a mapping"
