@@ -228,6 +228,7 @@ def test_pty_reader_gets_exactly_the_scheduled_sentences_inside_the_4800_baud_bu
         received = socat_pty.reader_lines(reader)
         out.close()
     assert "".join(line for _, line in received) == "".join(sent)
+    assert "\\" not in "".join(sent)  # never a tag block on a serial line
     assert {pynmea2.parse(line, check=True).target_number for _, line in received} == set(range(1, 21))
     t = np.array([ts for ts, _ in received])
     cum = np.cumsum([len(line) for _, line in received])
