@@ -73,7 +73,6 @@ class SerialPortBase(abc.ABC):
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._connected = False
-        self._ever_connected = False
         self._fault = False
         self._stalled = False
         keys = ("submitted", "written_messages", "written_bytes", "dropped", "write_timeouts", "errors")
@@ -185,7 +184,6 @@ class SerialPortBase(abc.ABC):
             log.info("serial port %s is back after %d errors in all", self.name, self._counts["errors"])
         self._fault = False
         self._stalled = False
-        self._ever_connected = True
 
     def _close_quietly(self) -> None:
         self._connected = False

@@ -94,6 +94,7 @@ class _Live:
     fix: ShipFix
     number: int | None
     last_sent_s: float = -math.inf
+    waited: bool = False  # found all numbers busy at least once
 
 
 @dataclass(slots=True)
@@ -128,8 +129,8 @@ class NmeaScheduler:
         self._last_s: float | None = None
         self._live: dict[int, _Live] = {}
         self._lost: dict[int, _Lost] = {}  # by track id
-        self._waited: set[int] = set()
-        self._counts = dict.fromkeys(("groups_sent", "lost_groups_sent", "bytes_sent", "refused"), 0)
+        keys = ("groups_sent", "lost_groups_sent", "bytes_sent", "refused", "tracks_waited")
+        self._counts = dict.fromkeys(keys, 0)
 
     def step(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
         """Take this step's live fixes; return the groups of sentences to send now, in order."""
@@ -161,7 +162,6 @@ class NmeaScheduler:
     def stats(self) -> SchedulerStats:
         return SchedulerStats(
             **self._counts,
-            tracks_waited=len(self._waited),
             live=len(self._live),
             waiting=sum(t.number is None for t in self._live.values()),
             lost_pending=len(self._lost),
@@ -214,11 +214,12 @@ class NmeaScheduler:
                 continue
             if track.number is None:
                 track.number = self.numbers.assign(track_id, now_s)
-                if track.number is None:
-                    if not self._waited:
+                if track.number is None and not track.waited:
+                    if not self._counts["tracks_waited"]:
                         log.warning("NMEA: all %d target numbers busy; new tracks wait (logged once)",
                                     self.numbers.max_number)
-                    self._waited.add(track_id)
+                    self._counts["tracks_waited"] += 1
+                    track.waited = True
 
     def _drop(self, track_id: int, fix: ShipFix | None, now_s: float) -> None:
         track = self._live.pop(track_id)
