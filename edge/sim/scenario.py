@@ -1,0 +1,215 @@
+"""Scenario files (config/scenarios/*.yaml): what the simulator renders, validated like any config.
+
+A scenario names a calibration (a path relative to the scenario file, or the
+mapping inline), the site when the calibration has none, the frame rate and
+duration, the weather, the sensor, trigger faults, glints and the ships with
+their tracks. The dataclasses below are the schema; `edge.schema` turns every
+mistake into a `ConfigError` naming the file and key (exit 78 from the CLI).
+
+`load_scenario("akashi-crossing")` finds config/scenarios/akashi-crossing.yaml;
+anything with a slash or a .yaml suffix is taken as a path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from edge.calibration import Calibration, calibration_from_dict, load_calibration, site_from_dict
+from edge.core.site import Site
+from edge.errors import ConfigError
+from edge.schema import load_dataclass, load_yaml, setting
+from edge.sim.imaging import ImagingSpec
+from edge.sim.scene import Atmosphere, Sea, Sky, Sun
+from edge.sim.ships import KINDS, ShipModel
+from edge.sim.tracks import KNOT_MPS, Track
+
+SCENARIO_DIR = Path(__file__).resolve().parents[2] / "config" / "scenarios"
+
+
+def _calibration(value: Any, file: Any, key: str) -> Calibration:
+    """A calibration file path (relative to the scenario) or an inline calibration mapping."""
+    if isinstance(value, str):
+        path = (
+            Path(value) if Path(value).is_absolute() or file is None else Path(file).resolve().parent / value
+        )
+        if not path.is_file():
+            raise ConfigError(file, key, "a calibration file (path relative to the scenario)", str(path))
+        return load_calibration(path)
+    if isinstance(value, dict):
+        return calibration_from_dict(value, file, key)
+    raise ConfigError(file, key, "a calibration file path or an inline calibration mapping", value)
+
+
+def _site(value: Any, file: Any, key: str) -> Site | None:
+    return None if value is None else site_from_dict(value, file, key)
+
+
+@dataclass(frozen=True)
+class TrackSpec:
+    waypoints_m: tuple[tuple[float, float], ...] = setting(
+        min_items=2, doc="world (x, z) waypoints in metres: X right along the baseline, Z forward"
+    )
+    speed_kn: tuple[float, ...] = setting(
+        positive=True, min_items=1, doc="speed per leg (one value: every leg)"
+    )
+    turn_radius_m: float = setting(0.0, min=0.0, doc="turn radius at each waypoint; 0: two ship lengths")
+    start_s: float = setting(0.0, doc="when the ship passes the first waypoint (negative: already under way)")
+    holds_s: tuple[float, ...] = setting(
+        (), min=0.0, doc="stop this long at each waypoint (one per waypoint)"
+    )
+
+
+@dataclass(frozen=True)
+class ShipSpec:
+    id: int = setting(min=1, max=9999, doc="ship id in truth.csv")
+    kind: Literal[KINDS] = setting(doc="hull and superstructure preset")  # type: ignore[valid-type]
+    length_m: float = setting(min=5.0, max=400.0, doc="length overall, metres")
+    track: TrackSpec = setting(doc="scripted track")
+    paint_seed: int = setting(0, min=0, doc="varies the paint between ships of one kind")
+    motion: float = setting(1.0, min=0.0, max=5.0, doc="roll/pitch/heave scale (0: flat calm)")
+
+
+@dataclass(frozen=True)
+class TriggerSpec:
+    skew_ns: int = setting(
+        0, min=-1_000_000_000, max=1_000_000_000, doc="constant right-minus-left exposure offset, ns"
+    )
+    jitter_ns: float = setting(
+        0.0, min=0.0, max=1e9, doc="RMS random exposure-time jitter of each camera, ns"
+    )
+    drop_rate: float = setting(0.0, min=0.0, max=0.5, doc="probability that a camera loses a frame")
+
+
+@dataclass(frozen=True)
+class RigErrorSpec:
+    right_rotation_deg: tuple[float, float, float] = setting(
+        (0.0, 0.0, 0.0),
+        min=-5.0,
+        max=5.0,
+        doc="true minus calibrated right-camera rotation: rx vertical misalignment, ry yaw (disparity bias)",
+    )
+
+
+@dataclass(frozen=True)
+class GlintSpec:
+    rate_hz: float = setting(0.0, min=0.0, max=1000.0, doc="new glints per second, each in one view only")
+    near_ship: float = setting(
+        0.0, min=0.0, max=1.0, doc="fraction placed on a ship's hull, not the open sea"
+    )
+    peak_dn: float = setting(600.0, positive=True, doc="peak radiance, DN (saturates at 255)")
+    sigma_px: float = setting(0.7, positive=True, max=10.0, doc="spot size (Gaussian sigma), pixels")
+    duration_s: tuple[float, float] = setting((0.1, 0.4), positive=True, doc="shortest and longest lifetime")
+    max_range_m: float = setting(3000.0, positive=True, doc="open-sea glints lie within this range")
+
+
+@dataclass(frozen=True, kw_only=True)
+class ScenarioSpec:
+    description: str = setting("", doc="what the scenario exercises")
+    calibration: Calibration = setting(
+        load=_calibration,
+        accepts="a calibration file path or mapping",
+        doc="the rig (path relative to the scenario file, or inline)",
+    )
+    site: Site | None = setting(
+        None,
+        load=_site,
+        accepts="a site mapping or null",
+        doc="lat_deg, lon_deg, height_m, heading_deg; overrides the calibration's",
+    )
+    fps: float = setting(positive=True, max=240.0, doc="frame (trigger) rate")
+    duration_s: float = setting(positive=True, max=86_400.0, doc="length of the recording, seconds")
+    atmosphere: Atmosphere = setting(default_factory=Atmosphere)
+    sky: Sky = setting(default_factory=Sky)
+    sea: Sea = setting(default_factory=Sea)
+    sun: Sun = setting(default_factory=Sun)
+    imaging: ImagingSpec = setting(default_factory=ImagingSpec)
+    trigger: TriggerSpec = setting(default_factory=TriggerSpec)
+    rig_error: RigErrorSpec = setting(default_factory=RigErrorSpec)
+    glints: GlintSpec = setting(default_factory=GlintSpec)
+    ships: tuple[ShipSpec, ...] = setting((), doc="the ships and their tracks")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario: its spec, where it came from, the calibration and site to render with."""
+
+    name: str
+    path: Path
+    spec: ScenarioSpec
+    calibration: Calibration  # what the recording states (the rig the pipeline will use)
+    site: Site
+
+    @property
+    def n_frames(self) -> int:
+        return max(1, round(self.spec.duration_s * self.spec.fps))
+
+
+def scenario_path(name_or_path: str | Path) -> Path:
+    """config/scenarios/NAME.yaml for a bare name, else the path as given."""
+    text = str(name_or_path)
+    if "/" in text or text.endswith((".yaml", ".yml")):
+        return Path(text)
+    path = SCENARIO_DIR / f"{text}.yaml"
+    if not path.is_file():
+        known = ", ".join(sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))) or "none"
+        raise ConfigError(text, "", f"a scenario name in {SCENARIO_DIR} (one of: {known}) or a YAML path")
+    return path
+
+
+def build_ships(spec: ScenarioSpec, file: Any) -> list:
+    """The scenario's ships on their tracks; track geometry errors name the ship's key."""
+    from edge.sim.ships import Ship
+
+    ships = []
+    for i, s in enumerate(spec.ships):
+        key = f"ships[{i}]"
+        model = ShipModel.build(s.kind, s.length_m, seed=s.paint_seed * 1000 + s.id)
+        t = s.track
+        radius = t.turn_radius_m if t.turn_radius_m > 0.0 else 2.0 * s.length_m
+        try:
+            speeds = [v * KNOT_MPS for v in t.speed_kn]
+            if len(speeds) not in (1, len(t.waypoints_m) - 1):
+                raise ValueError(f"give one speed or one per leg ({len(t.waypoints_m) - 1})")
+            track = Track(t.waypoints_m, speeds, radius, t.start_s, list(t.holds_s) or None)
+        except ValueError as exc:
+            raise ConfigError(file, f"{key}.track", f"a valid track ({exc})") from None
+        ships.append(Ship(s.id, model, track, s.motion))
+    return ships
+
+
+def scenario_from_dict(data: Any, file: str | Path, name: str | None = None) -> Scenario:
+    spec = load_dataclass(ScenarioSpec, data, file)
+    ids = [s.id for s in spec.ships]
+    for i, ship_id in enumerate(ids):
+        if ship_id in ids[:i]:
+            raise ConfigError(file, f"ships[{i}].id", "an id no other ship uses", ship_id)
+    site = spec.site or spec.calibration.site
+    if site is None:
+        raise ConfigError(file, "site", "a site (here or in the calibration): the height sets the horizon")
+    if not site.height_m > 0.5:
+        key = "site.height_m" if spec.site is not None else "calibration"
+        raise ConfigError(file, key, "a camera height above the sea of more than 0.5 m", site.height_m)
+    if spec.sea.wavelength_min_m > spec.sea.wavelength_max_m:
+        raise ConfigError(
+            file, "sea.wavelength_min_m", "at most sea.wavelength_max_m", spec.sea.wavelength_min_m
+        )
+    lo, hi = spec.glints.duration_s
+    if lo > hi:
+        raise ConfigError(file, "glints.duration_s", "[shortest, longest] in that order", [lo, hi])
+    build_ships(spec, file)  # track errors surface at load time, not mid-render
+    path = Path(file)
+    return Scenario(name or path.stem, path, spec, spec.calibration, site)
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """Read and validate a scenario by name (config/scenarios) or path."""
+    path = scenario_path(name_or_path)
+    return scenario_from_dict(load_yaml(path), path)
+
+
+def horizontal_fov_deg(scenario: Scenario) -> float:
+    rig = scenario.calibration.rig
+    return math.degrees(2.0 * math.atan(rig.width / 2.0 / rig.focal_px()))
