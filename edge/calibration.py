@@ -49,8 +49,9 @@ class Calibration:
 class SiteSchema:
     lat_deg: float = setting(doc="WGS-84 latitude of the baseline midpoint", min=-90.0, max=90.0)
     lon_deg: float = setting(doc="WGS-84 longitude", min=-180.0, max=180.0)
-    height_m: float = setting(doc="height of the baseline midpoint above mean sea level", min=-500.0,
-                              max=9000.0)
+    height_m: float = setting(
+        doc="height of the baseline midpoint above mean sea level", min=-500.0, max=9000.0
+    )
     heading_deg: float = setting(doc="true azimuth of the optical axis (world +Z)", min=0.0, max=360.0)
 
 
@@ -113,15 +114,20 @@ def _camera(spec: _Pinhole | _Poly10, image: _Image, file: Any, key: str) -> Cam
     for axis, size in (("cx", image.width), ("cy", image.height)):
         value = getattr(spec, axis)
         if not 0.0 <= value <= size - 1:
-            raise ConfigError(file, f"{key}.{axis}", f"a principal point inside the image [0, {size - 1}]",
-                              value)
+            raise ConfigError(
+                file, f"{key}.{axis}", f"a principal point inside the image [0, {size - 1}]", value
+            )
     if isinstance(spec, _Pinhole):
         camera: CameraModel = PinholeCamera(spec.fx, spec.fy, spec.cx, spec.cy, spec.dist, spec.rotation_deg)
     else:
         for index in (0, 5):
             if spec.coeffs[index] <= 0.0:
-                raise ConfigError(file, f"{key}.coeffs[{index}]", "a number > 0 (1 / focal length in px)",
-                                  spec.coeffs[index])
+                raise ConfigError(
+                    file,
+                    f"{key}.coeffs[{index}]",
+                    "a number > 0 (1 / focal length in px)",
+                    spec.coeffs[index],
+                )
         camera = Poly10Camera(spec.cx, spec.cy, spec.coeffs, spec.rotation_deg)
     _check_invertible(camera, image, file, key)
     return camera
@@ -136,9 +142,13 @@ def _check_invertible(camera: CameraModel, image: _Image, file: Any, key: str) -
     bad = ~(error <= ROUND_TRIP_TOL_PX)
     if bad.any():
         first = uv[np.argmax(bad)]
-        raise ConfigError(file, key, "a lens model that is invertible over the whole image",
-                          f"no unique ray at pixel ({first[0]:.0f}, {first[1]:.0f}): check the signs "
-                          "and sizes of the distortion coefficients")
+        raise ConfigError(
+            file,
+            key,
+            "a lens model that is invertible over the whole image",
+            f"no unique ray at pixel ({first[0]:.0f}, {first[1]:.0f}): check the signs "
+            "and sizes of the distortion coefficients",
+        )
 
 
 def calibration_from_dict(data: Any, file: str | Path | None, key_prefix: str = "") -> Calibration:
@@ -157,8 +167,12 @@ def load_calibration(path: str | Path) -> Calibration:
 
 
 def site_to_dict(site: Site) -> dict[str, float]:
-    return {"lat_deg": float(site.lat_deg), "lon_deg": float(site.lon_deg),
-            "height_m": float(site.height_m), "heading_deg": float(site.heading_deg)}
+    return {
+        "lat_deg": float(site.lat_deg),
+        "lon_deg": float(site.lon_deg),
+        "height_m": float(site.height_m),
+        "heading_deg": float(site.heading_deg),
+    }
 
 
 def calibration_to_dict(cal: Calibration) -> dict[str, Any]:
@@ -175,9 +189,7 @@ def calibration_to_dict(cal: Calibration) -> dict[str, Any]:
 
 
 def _plain(mapping: dict[str, Any]) -> dict[str, Any]:
-    return {k: [float(x) for x in v] if isinstance(v, list | tuple) else v if isinstance(v, str) else float(v)
-            for k, v in mapping.items()}
-
-
-__all__ = ["Calibration", "SiteSchema", "calibration_from_dict", "calibration_to_dict", "load_calibration",
-           "site_from_dict", "site_to_dict"]
+    return {
+        k: [float(x) for x in v] if isinstance(v, list | tuple) else v if isinstance(v, str) else float(v)
+        for k, v in mapping.items()
+    }

@@ -85,8 +85,9 @@ def _resolve(file: Any, path: str) -> Path:
 
 @dataclass(frozen=True)
 class TriggerConfig:
-    kind: Literal["none", "gpio", "virtual"] = setting("none", doc="external trigger: none (free-running)"
-                                                       ", a GPIO line (chardev) or a virtual one")
+    kind: Literal["none", "gpio", "virtual"] = setting(
+        "none", doc="external trigger: none (free-running), a GPIO line (chardev) or a virtual one"
+    )
     chip: str = setting("/dev/gpiochip0", doc="GPIO chip device (kind gpio)")
     line: int = setting(0, min=0, max=511, doc="GPIO line offset on the chip (kind gpio)")
     pulse_us: int = setting(1000, min=1, max=100_000, doc="trigger pulse width, microseconds")
@@ -159,8 +160,9 @@ class NmeaPort:
     parity: Literal["N", "E", "O"] = setting("N", doc="parity")
     stopbits: Literal[1, 2] = setting(1, doc="stop bits")
     talker: str = setting("RA", pattern="[A-Z][A-Z0-9]", doc="talker id (RA radar, II, U0..U9)")
-    sentences: tuple[Literal["TTM", "TLL"], ...] = setting(("TTM", "TLL"), min_items=1, max_items=2,
-                                                           doc=_SENTENCES)
+    sentences: tuple[Literal["TTM", "TLL"], ...] = setting(
+        ("TTM", "TLL"), min_items=1, max_items=2, doc=_SENTENCES
+    )
     send_acquiring: bool = setting(False, doc="also report acquiring (Q) tracks")
     proprietary: ProprietaryConfig = setting(default_factory=ProprietaryConfig)
 
@@ -173,8 +175,9 @@ class UdpConfig:
     interface: str = setting("0.0.0.0", check=_ipv4, doc="local address of the sending interface")
     ttl: int = setting(1, min=0, max=255, doc="multicast TTL")
     source: str = setting("RA0001", pattern="[A-Z][A-Z0-9][0-9]{4}", doc="tag block s: (talker + 4 digits)")
-    sentences: tuple[Literal["TTM", "TLL"], ...] = setting(("TTM", "TLL"), min_items=1, max_items=2,
-                                                           doc=_SENTENCES)
+    sentences: tuple[Literal["TTM", "TLL"], ...] = setting(
+        ("TTM", "TLL"), min_items=1, max_items=2, doc=_SENTENCES
+    )
 
 
 @dataclass(frozen=True)
@@ -236,12 +239,20 @@ class LoggingConfig:
 class AppConfig:
     version: Literal[1] = setting(1, doc="configuration format version")
     cameras: V4l2Cameras | ReplayCameras | VirtualCameras = setting(
-        default_factory=VirtualCameras, doc="frame source; `kind` picks v4l2, replay or virtual")
+        default_factory=VirtualCameras, doc="frame source; `kind` picks v4l2, replay or virtual"
+    )
     calibration: Calibration | None = setting(
-        None, load=_load_calibration_ref, accepts="a file path or a calibration mapping, or null",
-        doc="calibration YAML (path relative to this file, or inline); null: the scenario's/recording's")
-    site: Site | None = setting(None, load=_load_site, accepts="a site mapping or null",
-                                doc="lat_deg, lon_deg, height_m, heading_deg; overrides the calibration's")
+        None,
+        load=_load_calibration_ref,
+        accepts="a file path or a calibration mapping, or null",
+        doc="calibration YAML (path relative to this file, or inline); null: the scenario's/recording's",
+    )
+    site: Site | None = setting(
+        None,
+        load=_load_site,
+        accepts="a site mapping or null",
+        doc="lat_deg, lon_deg, height_m, heading_deg; overrides the calibration's",
+    )
     pipeline: PipelineConfig = setting(default_factory=PipelineConfig)
     outputs: OutputsConfig = setting(default_factory=OutputsConfig)
     health: HealthConfig = setting(default_factory=HealthConfig)
@@ -289,9 +300,3 @@ def load_config(path: str | Path) -> AppConfig:
 def schema_markdown() -> str:
     """The configuration reference table for the README."""
     return markdown_table(AppConfig)
-
-
-__all__ = ["AppConfig", "HealthConfig", "LedsConfig", "LoggingConfig", "ModbusConfig", "ModbusRtu",
-           "ModbusTcp", "NmeaPort", "OutputsConfig", "PipelineConfig", "ProprietaryConfig", "ReplayCameras",
-           "TriggerConfig", "UdpConfig", "V4l2Cameras", "VirtualCameras", "config_from_dict", "load_config",
-           "schema_markdown"]

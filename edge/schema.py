@@ -45,21 +45,26 @@ import yaml
 from edge.errors import ConfigError
 
 T = TypeVar("T")
-CONSTRAINTS = frozenset(
-    {"doc", "accepts", "min", "max", "positive", "choices", "pattern", "min_items", "max_items", "check",
-     "load"}
+CONSTRAINTS = frozenset(  # metadata keys `setting` accepts
+    "doc accepts min max positive choices pattern min_items max_items check load".split()
 )
-_NONE = type(None)
+NONE_TYPE = type(None)
 
 
-def setting(default: Any = dataclasses.MISSING, *, default_factory: Any = dataclasses.MISSING,
-            doc: str = "", **constraints: Any) -> Any:
+def setting(
+    default: Any = dataclasses.MISSING,
+    *,
+    default_factory: Any = dataclasses.MISSING,
+    doc: str = "",
+    **constraints: Any,
+) -> Any:
     """A dataclass field with documentation and constraints (see the module docstring)."""
     unknown = set(constraints) - CONSTRAINTS
     if unknown:
         raise TypeError(f"unknown constraint(s) {sorted(unknown)}; known: {sorted(CONSTRAINTS)}")
-    return dataclasses.field(default=default, default_factory=default_factory,
-                             metadata={"doc": doc, **constraints})
+    return dataclasses.field(
+        default=default, default_factory=default_factory, metadata={"doc": doc, **constraints}
+    )
 
 
 # ---------------------------------------------------------------- reading YAML
@@ -99,7 +104,7 @@ def load_yaml(path: str | Path) -> Any:
     except UnicodeDecodeError as exc:
         raise ConfigError(path, "", "UTF-8 text", f"undecodable byte at offset {exc.start}") from None
     try:
-        return yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - a SafeLoader subclass
+        return yaml.load(text, Loader=_StrictLoader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -118,7 +123,8 @@ def load_dataclass(cls: type[T], data: Any, file: str | Path | None, key_prefix:
     return _build(cls, data, file, key_prefix, {})
 
 
-def _child(prefix: str, name: str) -> str:
+def child_key(prefix: str, name: str) -> str:
+    """Key path of a mapping entry: ``outputs`` + ``nmea`` -> ``outputs.nmea``."""
     return f"{prefix}.{name}" if prefix else name
 
 
@@ -139,6 +145,7 @@ def _hint(word: Any, candidates: list[str]) -> str:
 
 
 def union_members(tp: Any) -> tuple[Any, ...] | None:
+    """The members of ``X | Y`` / ``Optional[X]``, or None for a non-union type."""
     return get_args(tp) if get_origin(tp) in (Union, types.UnionType) else None
 
 
@@ -180,8 +187,9 @@ def _build_typed(tp: Any, value: Any, file: Any, key: str, meta: Mapping[str, An
     if origin is Literal:
         choices = get_args(tp)
         if not any(type(value) is type(c) and value == c for c in choices):
-            raise ConfigError(file, key, f"one of {_join(choices)}{_hint(value, [str(c) for c in choices])}",
-                              value)
+            raise ConfigError(
+                file, key, f"one of {join_repr(choices)}{_hint(value, [str(c) for c in choices])}", value
+            )
         return value
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, Mapping):
@@ -197,7 +205,7 @@ def _build_typed(tp: Any, value: Any, file: Any, key: str, meta: Mapping[str, An
         for k, v in value.items():
             if not isinstance(k, str):
                 raise ConfigError(file, key, "string keys", k)
-            out[k] = _build(value_tp, v, file, _child(key, k), meta)
+            out[k] = _build(value_tp, v, file, child_key(key, k), meta)
         return out
     if tp in (int, float, str, bool):
         return _scalar(tp, value, file, key, meta)
@@ -205,22 +213,28 @@ def _build_typed(tp: Any, value: Any, file: Any, key: str, meta: Mapping[str, An
 
 
 def _build_union(members: tuple[Any, ...], value: Any, file: Any, key: str, meta: Mapping[str, Any]) -> Any:
-    if value is None and _NONE in members:
+    if value is None and NONE_TYPE in members:
         return None
-    members = tuple(m for m in members if m is not _NONE)
+    members = tuple(m for m in members if m is not NONE_TYPE)
     if len(members) == 1:
         return _build(members[0], value, file, key, meta)
     tag = tag_field(members)
     if tag is not None:
         tags = {get_args(get_type_hints(m)[tag])[0]: m for m in members}
         if not isinstance(value, Mapping):
-            raise ConfigError(file, key, f"a mapping with {tag}: {_join(tags, ' | ')}", _kind(value))
+            raise ConfigError(file, key, f"a mapping with {tag}: {join_repr(tags, ' | ')}", _kind(value))
         if tag not in value:
-            raise ConfigError(file, _child(key, tag), f"one of {_join(tags)} (required key is missing)")
+            raise ConfigError(
+                file, child_key(key, tag), f"one of {join_repr(tags)} (required key is missing)"
+            )
         chosen = tags.get(value[tag])
         if chosen is None:
-            raise ConfigError(file, _child(key, tag),
-                              f"one of {_join(tags)}{_hint(value[tag], list(map(str, tags)))}", value[tag])
+            raise ConfigError(
+                file,
+                child_key(key, tag),
+                f"one of {join_repr(tags)}{_hint(value[tag], list(map(str, tags)))}",
+                value[tag],
+            )
         return _build_dataclass(chosen, value, file, key)
     for member in members:  # untagged: first member that accepts the value
         try:
@@ -239,10 +253,10 @@ def _build_dataclass(cls: Any, value: Mapping[str, Any], file: Any, key: str) ->
                 raise ConfigError(file, key or "<top>", "string keys", name)
             known = sorted(fields)
             hint = _hint(name, known) or f" (known keys: {', '.join(known)})"
-            raise ConfigError(file, _child(key, name), f"a known key{hint}")
+            raise ConfigError(file, child_key(key, name), f"a known key{hint}")
     kwargs = {}
     for name, f in fields.items():
-        child = _child(key, name)
+        child = child_key(key, name)
         if name in value:
             kwargs[name] = _build(hints[name], value[name], file, child, f.metadata)
         elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
@@ -255,7 +269,7 @@ def _build_dataclass(cls: Any, value: Mapping[str, Any], file: Any, key: str) ->
 
 def _build_sequence(tp: Any, value: Any, file: Any, key: str, meta: Mapping[str, Any]) -> Any:
     if not isinstance(value, list | tuple):
-        raise ConfigError(file, key, describe(tp, meta), value)
+        raise ConfigError(file, key, describe(tp, meta), _kind(value))
     args = get_args(tp)
     if get_origin(tp) is tuple and not (len(args) == 2 and args[1] is Ellipsis):
         if len(value) != len(args):
@@ -292,8 +306,10 @@ def _scalar(tp: type, value: Any, file: Any, key: str, meta: Mapping[str, Any]) 
         value = float(value)
     if tp in (int, float):
         lo, hi = meta.get("min"), meta.get("max")
-        if (lo is not None and value < lo) or (hi is not None and value > hi) or (
-            meta.get("positive") and value <= 0
+        if (
+            (lo is not None and value < lo)
+            or (hi is not None and value > hi)
+            or (meta.get("positive") and value <= 0)
         ):
             raise ConfigError(file, key, expected, value)
     if "choices" in meta and value not in meta["choices"]:
@@ -306,7 +322,8 @@ def _scalar(tp: type, value: Any, file: Any, key: str, meta: Mapping[str, Any]) 
 # ---------------------------------------------------------------- describing the schema
 
 
-def _join(values: Any, sep: str = ", ") -> str:
+def join_repr(values: Any, sep: str = ", ") -> str:
+    """'a', 'b', 'c' for error messages and tables."""
     return sep.join(repr(v) for v in values)
 
 
@@ -317,11 +334,11 @@ def describe(tp: Any, meta: Mapping[str, Any] | None = None) -> str:
         return meta["accepts"]
     members = union_members(tp)
     if members is not None:
-        parts = [describe(m, meta) for m in members if m is not _NONE]
-        return " or ".join(parts) + (" or null" if _NONE in members else "")
+        parts = [describe(m, meta) for m in members if m is not NONE_TYPE]
+        return " or ".join(parts) + (" or null" if NONE_TYPE in members else "")
     origin = get_origin(tp)
     if origin is Literal:
-        return f"one of {_join(get_args(tp))}"
+        return f"one of {join_repr(get_args(tp))}"
     if dataclasses.is_dataclass(tp):
         return "a mapping"
     if origin in (tuple, list):
@@ -353,19 +370,24 @@ def describe(tp: Any, meta: Mapping[str, Any] | None = None) -> str:
     elif hi is not None:
         base += f" <= {hi}"
     if "choices" in meta:
-        base += f", one of {_join(meta['choices'])}"
+        base += f", one of {join_repr(meta['choices'])}"
     if "pattern" in meta:
         base += f" matching {meta['pattern']}"
     return base
 
 
+_PLURALS = {
+    "one of": "values from",
+    "an integer": "integers",
+    "a finite number": "numbers",
+    "a string": "strings",
+    "a mapping": "mappings",
+    "a list": "lists",
+}
+
+
 def _plural(text: str) -> str:
-    pairs = (("one of", "values from"), ("an integer", "integers"), ("a finite number", "numbers"),
-             ("a string", "strings"), ("a mapping", "mappings"), ("a list", "lists"))
-    for single, many in pairs:
+    for single, many in _PLURALS.items():
         if text.startswith(single):
-            return many + text[len(single):]
+            return many + text[len(single) :]
     return text
-
-
-__all__ = ["CONSTRAINTS", "describe", "load_dataclass", "load_yaml", "setting", "tag_field", "union_members"]

@@ -12,7 +12,7 @@ from typing import Any, get_args, get_origin, get_type_hints
 
 import yaml
 
-from edge.schema import _NONE, _child, _join, describe, tag_field, union_members
+from edge.schema import NONE_TYPE, child_key, describe, join_repr, tag_field, union_members
 
 
 def _default_text(f: dataclasses.Field) -> str:
@@ -41,8 +41,8 @@ def schema_rows(cls: Any, prefix: str = "") -> list[tuple[str, str, str, str]]:
     for f in dataclasses.fields(cls):
         if not f.init:
             continue
-        key, tp = _child(prefix, f.name), hints[f.name]
-        members = [m for m in (union_members(tp) or (tp,)) if m is not _NONE]
+        key, tp = child_key(prefix, f.name), hints[f.name]
+        members = [m for m in (union_members(tp) or (tp,)) if m is not NONE_TYPE]
         if get_origin(tp) in (tuple, list) and dataclasses.is_dataclass(get_args(tp)[0]):
             rows.append((key, "a list of mappings", _default_text(f), f.metadata.get("doc", "")))
             rows.extend(schema_rows(get_args(tp)[0], key + "[]"))
@@ -55,10 +55,13 @@ def schema_rows(cls: Any, prefix: str = "") -> list[tuple[str, str, str, str]]:
             tags = [get_args(get_type_hints(m)[tag])[0] for m in members]
             chosen = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
             default = f"`{getattr(chosen, tag)}`" if dataclasses.is_dataclass(chosen) else ""
-            rows.append((_child(key, tag), f"one of {_join(tags)}", default, "picks a variant below"))
+            rows.append((child_key(key, tag), f"one of {join_repr(tags)}", default, "picks a variant below"))
             for member, value in zip(members, tags, strict=True):
-                rows.extend((k, a, d, f"*{tag} {value}:* {doc}") for k, a, d, doc in schema_rows(member, key)
-                            if k != _child(key, tag))
+                rows.extend(
+                    (k, a, d, f"*{tag} {value}:* {doc}")
+                    for k, a, d, doc in schema_rows(member, key)
+                    if k != child_key(key, tag)
+                )
         else:
             rows.append((key, describe(tp, f.metadata), _default_text(f), f.metadata.get("doc", "")))
     return rows

@@ -31,9 +31,9 @@ stage would return them unchanged, so it is skipped.
 **Parameters and gauge.** The principal point (cx, cy) is fixed (default: the
 image centre): a shift of it and a pan/tilt of the camera move the image in
 the same way up to a term ~ x^2 (< 16 % across a 43 deg field), so fitting
-both trades one for the other with large errors. pinhole: fx, fy, k1, k2, p1,
-p2 (k3 optional) + rx, ry, rz (9 or 10). poly10: a6 is fixed at 0, the rest + rx, ry, rz
-(12): the linear part of eq. 3.5 is a general 2x2 matrix [[a0, a1], [a6, a5]]
+both trades one for the other with large errors. pinhole: fx, fy, k1, k2,
+p1, p2 (k3 optional) + rx, ry, rz (9 or 10). poly10: a6 is fixed at 0, the
+rest + rx, ry, rz (12): the linear part of eq. 3.5 is a general 2x2 matrix [[a0, a1], [a6, a5]]
 and a roll about the optical axis multiplies it by a 2-D rotation, so roll
 and (a1, a6) are one freedom up to the weak cubic terms. a6 = 0 is the
 upper-triangular gauge of OpenCV's K (a1 plays the skew); roll then carries
@@ -46,9 +46,14 @@ camera (near one plane through its centre, or in a small patch: tested on the
 singular values of the centred pixel cloud, since directions are what the
 model is fitted to — depth does not enter once the centre is fixed, so
 landmarks all at one range are fine if they cover the image); and, as a last
-guard,
-parameters the Jacobian cannot resolve (column-scaled condition number).
-Standard errors: sqrt(diag((J^T J)^-1)) * sigma, with sigma^2 = SSR / (N - P).
+guard, parameters the Jacobian cannot resolve (column-scaled condition number).
+
+**Error bars.** Standard errors are sqrt(diag((J^T J)^-1)) * sigma with
+sigma^2 = SSR / (N - P), the unbiased pixel-noise estimate (the raw RMS is
+smaller by sqrt((N - P) / N)). They are honest (tests check z-scores over many
+seeds) and show what the data allow: a roll is seen only through the image
+radius, sigma_roll ~ noise / (r_rms sqrt(n)), about 0.02 deg for 12 landmarks
+at 0.3 px; pan and tilt about noise / (f sqrt(n)), 0.005 deg.
 """
 
 from __future__ import annotations
@@ -59,15 +64,19 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from edge.core.camera import CameraModel, PinholeCamera, Poly10Camera, StereoRig, rotation_matrix
+from edge.core.calibmodel import (
+    BAD_RESIDUAL_PX,
+    CameraParams,
+    angles_from_matrix,
+    directions,
+    initial_guess,
+    reprojection,
+)
+from edge.core.camera import CameraModel, StereoRig, rotation_matrix
 
 MIN_SPREAD_RATIO = 0.05  # weaker / stronger RMS spread of the landmark directions
 MIN_SPREAD_OF_WIDTH = 0.03  # RMS spread along the stronger axis / image width
 MAX_CONDITION = 1e10  # of the column-scaled Jacobian at the solution
-_BAD_RESIDUAL_PX = 1e4  # stands in for a point the trial model cannot map (keeps least_squares finite)
-_POLY_DEGREES = (1, 1, 2, 3, 3, 1, 1, 2, 3, 3)  # total degree of the term each a_k multiplies (eq. 3.5)
-_POLY_FREE = (0, 1, 2, 3, 4, 5, 7, 8, 9)  # a6 fixed at 0 (gauge, see above)
-_ANGLES = ("rx_deg", "ry_deg", "rz_deg")
 
 
 class CalibrationError(ValueError):
@@ -112,59 +121,12 @@ class RigFit:
 
     def worst(self, count: int = 5) -> list[tuple[str, float]]:
         """Rows with the largest residual norm in px (landmark reprojection or tie vertical disparity)."""
-        norms = np.fmax(np.fmax(np.hypot(*self.left.residuals_px.T), np.hypot(*self.right.residuals_px.T)),
-                        np.where(self.is_tie, np.abs(self.vertical_px), np.nan))
+        norms = np.fmax(
+            np.fmax(np.hypot(*self.left.residuals_px.T), np.hypot(*self.right.residuals_px.T)),
+            np.where(self.is_tie, np.abs(self.vertical_px), np.nan),
+        )
         order = [i for i in np.argsort(-np.nan_to_num(norms, nan=-1.0)) if np.isfinite(norms[i])]
         return [(self.names[i], float(norms[i])) for i in order[:count]]
-
-
-class _Model:
-    """One camera's parameter vector x <-> CameraModel (internal scaling keeps every x of order 1)."""
-
-    def __init__(self, kind: str, cx: float, cy: float, scale_px: float, fit_k3: bool = False) -> None:
-        self.kind, self.cx, self.cy, self.scale = kind, cx, cy, scale_px
-        if kind == "pinhole":
-            self.names = ("fx", "fy", "k1", "k2", "p1", "p2", *(("k3",) if fit_k3 else ()), *_ANGLES)
-            self.factor = np.ones(len(self.names))
-        elif kind == "poly10":
-            self.names = (*(f"a{k}" for k in _POLY_FREE), *_ANGLES)
-            degrees = [_POLY_DEGREES[k] for k in _POLY_FREE]
-            self.factor = np.array([scale_px ** -d for d in degrees] + [1.0, 1.0, 1.0])  # a_k = b_k / s^deg
-        else:
-            raise ValueError(f"unknown camera model {kind!r}: pinhole or poly10")
-
-    def initial(self, fx: float, fy: float, angles_deg: np.ndarray) -> np.ndarray:
-        if self.kind == "pinhole":
-            return np.array([fx, fy, *[0.0] * (len(self.names) - 5), *angles_deg])
-        b = np.zeros(len(_POLY_FREE))
-        b[_POLY_FREE.index(0)], b[_POLY_FREE.index(5)] = self.scale / fx, self.scale / fy
-        return np.concatenate([b, angles_deg])
-
-    def camera(self, x: np.ndarray) -> CameraModel:
-        """Raises ValueError for parameters the camera classes refuse (e.g. a negative focal length)."""
-        values = x * self.factor
-        angles = tuple(float(a) for a in values[-3:])
-        if self.kind == "pinhole":
-            fx, fy, *dist = (float(v) for v in values[:-3])
-            return PinholeCamera(fx, fy, self.cx, self.cy, (*dist, 0.0)[:5], angles)
-        coeffs = [0.0] * 10
-        for k, value in zip(_POLY_FREE, values[:-3], strict=True):
-            coeffs[k] = float(value)
-        return Poly10Camera(self.cx, self.cy, tuple(coeffs), angles)
-
-
-def _directions(world_m: np.ndarray, centre_x: float) -> np.ndarray:
-    """World-frame normalised coordinates (x/z, y/z) of landmarks seen from a camera at (centre_x, 0, 0)."""
-    d = world_m - (centre_x, 0.0, 0.0)
-    return d[:, :2] / d[:, 2:3]
-
-
-def _reprojection(model: _Model, x: np.ndarray, xy: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    try:
-        predicted = model.camera(x).normalised_to_pixel(xy)
-    except ValueError:
-        return np.full(uv.size, _BAD_RESIDUAL_PX)
-    return np.nan_to_num((predicted - uv).ravel(), nan=_BAD_RESIDUAL_PX)
 
 
 def _vertical(cam_l: CameraModel, cam_r: CameraModel, uv_l: np.ndarray, uv_r: np.ndarray) -> np.ndarray:
@@ -173,61 +135,44 @@ def _vertical(cam_l: CameraModel, cam_r: CameraModel, uv_l: np.ndarray, uv_r: np
     return dy * 0.5 * (cam_l.focal_px() + cam_r.focal_px())
 
 
-def _kabsch(cam_dirs: np.ndarray, world_dirs: np.ndarray) -> np.ndarray:
-    """Rotation R minimising sum |w_i - R c_i|^2 (unit vectors), proper (det +1)."""
-    u, _, vt = np.linalg.svd(world_dirs.T @ cam_dirs)
-    d = np.sign(np.linalg.det(u @ vt))
-    return u @ np.diag([1.0, 1.0, d]) @ vt
-
-
-def _angles_deg(r: np.ndarray) -> np.ndarray:
-    """(rx, ry, rz) of R = Rz Ry Rx (inverse of camera.rotation_matrix)."""
-    return np.degrees([math.atan2(r[2, 1], r[2, 2]), -math.asin(max(-1.0, min(1.0, r[2, 0]))),
-                       math.atan2(r[1, 0], r[0, 0])])
-
-
-def _initial(model: _Model, xy: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Undistorted pinhole start: focal from an affine fit, then rotation (Kabsch) and focals in turn."""
-    centred = uv - (model.cx, model.cy)
-    design = np.column_stack([xy, np.ones(len(xy))])
-    affine, *_ = np.linalg.lstsq(design, centred, rcond=None)
-    fx = fy = math.sqrt(abs(np.linalg.det(affine[:2])))
-    world = np.column_stack([xy, np.ones(len(xy))])
-    world /= np.linalg.norm(world, axis=1, keepdims=True)
-    for _ in range(4):
-        cam = np.column_stack([centred / (fx, fy), np.ones(len(xy))])
-        rot = _kabsch(cam / np.linalg.norm(cam, axis=1, keepdims=True), world)
-        q = world @ rot  # camera-frame directions (R^T w)
-        q_xy = q[:, :2] / q[:, 2:3]
-        fx = float(q_xy[:, 0] @ centred[:, 0] / (q_xy[:, 0] @ q_xy[:, 0]))
-        fy = float(q_xy[:, 1] @ centred[:, 1] / (q_xy[:, 1] @ q_xy[:, 1]))
-    return model.initial(fx, fy, _angles_deg(rot))
-
-
-def _check_layout(side: str, world_m: np.ndarray, uv: np.ndarray, n_params: int, width: int,
-                  names: list[str]) -> None:
+def _check_layout(
+    side: str, world_m: np.ndarray, uv: np.ndarray, n_params: int, width: int, names: list[str]
+) -> None:
     """Refuse too few landmarks, landmarks behind the rig, and clustered or collinear image layouts."""
     if len(world_m) < n_params:
-        raise CalibrationError(f"{side} camera", f"at least {n_params} landmarks with world coordinates "
-                               f"and {side} pixels (one per fitted parameter)", len(world_m))
+        raise CalibrationError(
+            f"{side} camera",
+            f"at least {n_params} landmarks with world coordinates "
+            f"and {side} pixels (one per fitted parameter)",
+            len(world_m),
+        )
     behind = np.flatnonzero(world_m[:, 2] <= 0.0)
     if behind.size:
-        raise CalibrationError(f"landmark {names[behind[0]]!r}", "a point in front of the rig (Z > 0)",
-                               f"Z = {world_m[behind[0], 2]:.1f} m")
+        raise CalibrationError(
+            f"landmark {names[behind[0]]!r}",
+            "a point in front of the rig (Z > 0)",
+            f"Z = {world_m[behind[0], 2]:.1f} m",
+        )
     spread = np.linalg.svd(uv - uv.mean(axis=0), compute_uv=False) / math.sqrt(len(uv))  # RMS px per axis
     if spread[0] < MIN_SPREAD_OF_WIDTH * width:
-        raise CalibrationError(f"{side} camera", "landmarks spread over the image (they sit in one patch)",
-                               f"RMS spread {spread[0]:.1f} px")
+        raise CalibrationError(
+            f"{side} camera",
+            "landmarks spread over the image (they sit in one patch)",
+            f"RMS spread {spread[0]:.1f} px",
+        )
     if spread[1] < MIN_SPREAD_RATIO * spread[0]:
         raise CalibrationError(
-            f"{side} camera", "landmarks not all on one line in the image (a degenerate layout: seen from "
+            f"{side} camera",
+            "landmarks not all on one line in the image (a degenerate layout: seen from "
             "the camera they lie near one plane through its centre); add landmarks above and below that line",
-            f"spread ratio {spread[1] / spread[0]:.3f} < {MIN_SPREAD_RATIO}")
+            f"spread ratio {spread[1] / spread[0]:.3f} < {MIN_SPREAD_RATIO}",
+        )
 
 
 def _solve(fun, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    result = least_squares(fun, x0, method="trf", x_scale="jac", ftol=1e-14, xtol=1e-14, gtol=1e-14,
-                           max_nfev=400 * len(x0))
+    result = least_squares(
+        fun, x0, method="trf", x_scale="jac", ftol=1e-14, xtol=1e-14, gtol=1e-14, max_nfev=400 * len(x0)
+    )
     return result.x, result.fun, result.jac
 
 
@@ -239,28 +184,58 @@ def _std_errors(jac: np.ndarray, resid: np.ndarray, names: tuple[str, ...], subj
     _, s, vt = np.linalg.svd(scaled, full_matrices=False)
     if s[-1] <= 0.0 or s[0] / s[-1] > MAX_CONDITION or np.any(norms == 0.0):
         weak = np.argsort(-np.abs(vt[-1]))[:2]
-        raise CalibrationError(subject, "landmarks that determine every parameter (spread them over the "
-                               "whole image)", f"{', '.join(names[i] for i in weak)} not determined")
+        raise CalibrationError(
+            subject,
+            "landmarks that determine every parameter (spread them over the whole image)",
+            f"{', '.join(names[i] for i in weak)} not determined",
+        )
     cov_scaled = (vt.T / s**2) @ vt
     sigma2 = float(resid @ resid) / max(n - p, 1)
     return np.sqrt(np.diag(cov_scaled) * sigma2) / np.where(norms > 0.0, norms, 1.0)
 
 
-def _camera_fit(side: str, model: _Model, x: np.ndarray, std: np.ndarray, resid_rows: np.ndarray,
-                n_rows: int, rows: np.ndarray, n_params: int) -> CameraFit:
+def _camera_fit(
+    side: str,
+    model: CameraParams,
+    x: np.ndarray,
+    std: np.ndarray,
+    resid_rows: np.ndarray,
+    n_rows: int,
+    rows: np.ndarray,
+    n_params: int,
+) -> CameraFit:
     residuals = np.full((n_rows, 2), np.nan)
     residuals[rows] = resid_rows.reshape(-1, 2)
     values = x * model.factor
-    estimates = tuple(Estimate(name, float(v), float(e * abs(f)))
-                      for name, v, e, f in zip(model.names, values, std, model.factor, strict=True))
+    estimates = tuple(
+        Estimate(name, float(v), float(e * abs(f)))
+        for name, v, e, f in zip(model.names, values, std, model.factor, strict=True)
+    )
     ssr, n_obs = float(resid_rows @ resid_rows), resid_rows.size
-    return CameraFit(side, model.camera(x), estimates, residuals, math.sqrt(ssr / n_obs),
-                     math.sqrt(ssr / max(n_obs - n_params, 1)), n_obs)
+    return CameraFit(
+        side,
+        model.camera(x),
+        estimates,
+        residuals,
+        math.sqrt(ssr / n_obs),
+        math.sqrt(ssr / max(n_obs - n_params, 1)),
+        n_obs,
+    )
 
 
-def fit_rig(world_m: np.ndarray, uv_left: np.ndarray, uv_right: np.ndarray, *, model: str, baseline_m: float,
-            width: int, height: int, principal_point: tuple[float, float] | None = None,
-            fit_k3: bool = False, names: list[str] | None = None) -> RigFit:
+def fit_rig(
+    world_m: np.ndarray,
+    uv_left: np.ndarray,
+    uv_right: np.ndarray,
+    *,
+    model: str,
+    baseline_m: float,
+    width: int,
+    height: int,
+    principal_point: tuple[float, float] | None = None,
+    fit_k3: bool = False,
+    names: list[str] | None = None,
+) -> RigFit:
     """Fit a StereoRig. world_m (n, 3), NaN rows for tie points; uv_* (n, 2), NaN where not seen.
 
     model: "pinhole" or "poly10"; principal_point defaults to the image centre ((W-1)/2, (H-1)/2);
@@ -281,41 +256,54 @@ def fit_rig(world_m: np.ndarray, uv_left: np.ndarray, uv_right: np.ndarray, *, m
     models, xs, resids, jacs, rows = {}, {}, {}, {}, {}
     for side in ("left", "right"):
         rows[side] = np.flatnonzero(has_world & seen[side])
-        models[side] = m = _Model(model, cx, cy, 0.5 * width, fit_k3)
+        models[side] = m = CameraParams(model, cx, cy, 0.5 * width, fit_k3)
         pts, uv = world_m[rows[side]], pixels[side][rows[side]]
         _check_layout(side, pts, uv, len(m.names), width, [names[i] for i in rows[side]])
-        xy = _directions(pts, centre[side])
+        xy = directions(pts, centre[side])
         xs[side], resids[side], jacs[side] = _solve(
-            lambda x, m=m, xy=xy, uv=uv: _reprojection(m, x, xy, uv), _initial(m, xy, uv))
+            lambda x, m=m, xy=xy, uv=uv: reprojection(m, x, xy, uv), initial_guess(m, xy, uv)
+        )
     tie = np.flatnonzero(~has_world & seen["left"] & seen["right"])
     p_l, p_r = len(models["left"].names), len(models["right"].names)
     if tie.size:  # stage 2: eq. 3.7 tie points join the landmarks in one fit of both cameras
-        xy_l = _directions(world_m[rows["left"]], centre["left"])
-        xy_r = _directions(world_m[rows["right"]], centre["right"])
+        xy_l = directions(world_m[rows["left"]], centre["left"])
+        xy_r = directions(world_m[rows["right"]], centre["right"])
 
         def joint(x: np.ndarray) -> np.ndarray:
-            parts = [_reprojection(models["left"], x[:p_l], xy_l, uv_left[rows["left"]]),
-                     _reprojection(models["right"], x[p_l:], xy_r, uv_right[rows["right"]])]
+            parts = [
+                reprojection(models["left"], x[:p_l], xy_l, uv_left[rows["left"]]),
+                reprojection(models["right"], x[p_l:], xy_r, uv_right[rows["right"]]),
+            ]
             try:
-                v = _vertical(models["left"].camera(x[:p_l]), models["right"].camera(x[p_l:]),
-                              uv_left[tie], uv_right[tie])
+                v = _vertical(
+                    models["left"].camera(x[:p_l]),
+                    models["right"].camera(x[p_l:]),
+                    uv_left[tie],
+                    uv_right[tie],
+                )
             except ValueError:
-                v = np.full(tie.size, _BAD_RESIDUAL_PX)
-            return np.concatenate([*parts, np.nan_to_num(v, nan=_BAD_RESIDUAL_PX) / math.sqrt(2.0)])
+                v = np.full(tie.size, BAD_RESIDUAL_PX)
+            return np.concatenate([*parts, np.nan_to_num(v, nan=BAD_RESIDUAL_PX) / math.sqrt(2.0)])
 
         x, resid, jac = _solve(joint, np.concatenate([xs["left"], xs["right"]]))
         std = _std_errors(jac, resid, models["left"].names + models["right"].names, "stereo rig")
         xs = {"left": x[:p_l], "right": x[p_l:]}
         n_l = 2 * rows["left"].size
-        resids = {"left": resid[:n_l], "right": resid[n_l:n_l + 2 * rows["right"].size]}
+        resids = {"left": resid[:n_l], "right": resid[n_l : n_l + 2 * rows["right"].size]}
         stds = {"left": std[:p_l], "right": std[p_l:]}
         all_resid = resid
     else:
-        stds = {side: _std_errors(jacs[side], resids[side], models[side].names, f"{side} camera")
-                for side in ("left", "right")}
+        stds = {
+            side: _std_errors(jacs[side], resids[side], models[side].names, f"{side} camera")
+            for side in ("left", "right")
+        }
         all_resid = np.concatenate([resids["left"], resids["right"]])
-    fits = {side: _camera_fit(side, models[side], xs[side], stds[side], resids[side], n, rows[side],
-                              len(models[side].names)) for side in ("left", "right")}
+    fits = {
+        side: _camera_fit(
+            side, models[side], xs[side], stds[side], resids[side], n, rows[side], len(models[side].names)
+        )
+        for side in ("left", "right")
+    }
     rig = StereoRig(baseline_m, width, height, fits["left"].camera, fits["right"].camera)
     both = seen["left"] & seen["right"]
     vertical = np.full(n, np.nan)
@@ -323,11 +311,22 @@ def fit_rig(world_m: np.ndarray, uv_left: np.ndarray, uv_right: np.ndarray, *, m
         vertical[both] = _vertical(rig.left, rig.right, uv_left[both], uv_right[both])
     landmark_resid = np.concatenate([resids["left"], resids["right"]])
     n_obs, n_par = all_resid.size, p_l + p_r
-    return RigFit(rig, fits["left"], fits["right"], tuple(names), vertical, ~has_world,
-                  math.sqrt(float(landmark_resid @ landmark_resid) / landmark_resid.size),
-                  math.sqrt(float(all_resid @ all_resid) / max(n_obs - n_par, 1)), n_obs, n_par)
+    return RigFit(
+        rig,
+        fits["left"],
+        fits["right"],
+        tuple(names),
+        vertical,
+        ~has_world,
+        math.sqrt(float(landmark_resid @ landmark_resid) / landmark_resid.size),
+        math.sqrt(float(all_resid @ all_resid) / max(n_obs - n_par, 1)),
+        n_obs,
+        n_par,
+    )
 
 
 def relative_rotation_deg(rig: StereoRig) -> np.ndarray:
     """(rx, ry, rz) of the right camera relative to the left: R_l^T R_r, degrees."""
-    return _angles_deg(rotation_matrix(rig.left.rotation_deg).T @ rotation_matrix(rig.right.rotation_deg))
+    return angles_from_matrix(
+        rotation_matrix(rig.left.rotation_deg).T @ rotation_matrix(rig.right.rotation_deg)
+    )
