@@ -1,0 +1,113 @@
+"""Outputs fan-out: NMEA and Modbus see the same tracks with the same target numbers;
+a Modbus server that cannot start is a counted, retried fault, never an exception."""
+
+from __future__ import annotations
+
+import time
+
+import pynmea2
+
+from drivers.modbus import ModbusServer, VirtualModbusServer
+from drivers.serial_port import VirtualSerialPort
+from edge.fix import ShipFix, TrackStatus
+from edge.health import HealthMonitor, HealthState, standard_stages
+from edge.outputs.fanout import OUTPUT_STAGES, Outputs, firmware_version
+from edge.outputs.nmea_out import NmeaSerialOutput
+from edge.registers import Identity, read_field
+
+T_NS = 1_790_000_000_000_000_000
+
+
+def fix(track_id: int, range_m: float) -> ShipFix:
+    return ShipFix(T_NS, track_id, TrackStatus.TRACKING, 10.0, 20.0, range_m, range_m, 200.0,
+                   34.6, 135.0, 8.0, 90.0, 12.0, 5.0, age_s=3.0)
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.t_s = 0.0
+
+    def __call__(self) -> float:
+        return self.t_s
+
+
+def wait_for(predicate, timeout_s: float = 3.0) -> bool:
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return predicate()
+
+
+def test_nmea_and_modbus_carry_the_same_tracks_and_numbers() -> None:
+    clock = Clock()
+    health = HealthMonitor(standard_stages(OUTPUT_STAGES), clock=clock)
+    port = VirtualSerialPort()
+    nmea = NmeaSerialOutput("virtual", port=port, clock=clock)
+    server = VirtualModbusServer()
+    outputs = Outputs([nmea], [server], Identity(firmware_version()), health, clock=clock)
+    outputs.start()
+    fixes = [fix(5, 1500.0), fix(9, 2500.0)]
+    outputs.publish(fixes, T_NS)
+    assert wait_for(lambda: port.data().count(b"\r\n") >= 4)
+    numbers = {}
+    for line in port.data().decode().split("\r\n")[:-1]:
+        msg = pynmea2.parse(line, check=True)
+        if msg.sentence_type == "TTM":
+            numbers[msg.name] = int(msg.target_number)
+    slots = server.request(1, 4, 100, 20 * 2)  # FC4, the first two track slots
+    assert isinstance(slots, list)
+    image = [0] * 100 + slots
+    for slot, fx in enumerate(fixes):
+        assert read_field(image, "TRACK_ID", slot=slot) == fx.track_id
+        assert read_field(image, "TARGET_NUMBER", slot=slot) == numbers[f"TRK{fx.track_id}"]
+        assert read_field(image, "RANGE", slot=slot) == round(fx.range_m)
+    stages = {s.name: s for s in health.snapshot().stages}
+    assert stages["nmea"].fresh and stages["nmea"].fault is None
+    assert stages["modbus"].fresh and stages["modbus"].fault is None
+    outputs.close()
+
+
+class RefusingServer(ModbusServer):
+    """A Modbus server whose port is taken the first `refusals` times it is started."""
+
+    def __init__(self, refusals: int) -> None:
+        super().__init__("refusing")
+        self.refusals = refusals
+        self.attempts = 0
+        self.images: list[tuple[int, ...]] = []
+
+    def start(self) -> None:
+        self.attempts += 1
+        if self.attempts <= self.refusals:
+            raise OSError(98, "Address already in use")
+
+    def stop(self) -> None:
+        pass
+
+    def update(self, registers) -> None:
+        self.images.append(tuple(registers))
+
+
+def test_modbus_that_cannot_start_is_a_retried_fault_not_a_crash() -> None:
+    clock = Clock()
+    health = HealthMonitor(standard_stages(OUTPUT_STAGES), clock=clock)
+    server = RefusingServer(refusals=2)
+    outputs = Outputs([], [server], Identity(firmware_version()), health, clock=clock)
+    outputs.start()  # attempt 1 fails
+    outputs.publish([fix(1, 900.0)], T_NS)  # within back-off: no new attempt
+    assert server.attempts == 1 and not server.images
+    modbus = {s.name: s for s in health.snapshot().stages}["modbus"]
+    assert "Address already in use" in modbus.fault and modbus.counters["start_failures"] == 1
+    assert health.snapshot().state is not HealthState.OK
+    clock.t_s = 1.5  # back-off 1 s elapsed: attempt 2 fails, back-off doubles
+    outputs.publish([fix(1, 900.0)], T_NS)
+    clock.t_s = 3.0  # 2 s back-off not yet over
+    outputs.publish([fix(1, 900.0)], T_NS)
+    assert server.attempts == 2
+    clock.t_s = 3.6
+    outputs.publish([fix(1, 900.0)], T_NS)
+    assert server.attempts == 3 and len(server.images) == 1
+    modbus = {s.name: s for s in health.snapshot().stages}["modbus"]
+    assert modbus.fault is None
