@@ -29,21 +29,22 @@ COSTS = ("zssd", "ssd")
 def cost_curve(template: np.ndarray, band: np.ndarray, cost: str = "zssd") -> np.ndarray:
     """Integer cost of `template` against every window of `band` (int64, exact).
 
-    All arithmetic is float64 on integers below 2**53 (8/9-bit data, windows up to 61x61),
-    so every sum and product is exact and the result is converted to int64 without loss."""
+    `band` may carry leading batch axes (..., h, W): one curve per band, e.g. the rows of a
+    2-D search. All arithmetic is float64 on integers below 2**53 (8/9-bit data, windows up to
+    61x61), so every sum and product is exact and converts to int64 without loss."""
     h, w = template.shape
     t = np.asarray(template, dtype=np.float64)
     b = np.asarray(band, dtype=np.float64)
-    wb = b.shape[1]
+    lead, wb = b.shape[:-2], b.shape[-1]
     n = wb - w + 1
-    flat = np.zeros(w * (wb + 1))
-    np.matmul(t.T, b, out=flat[:w * wb].reshape(w, wb))   # prod[k, j] = sum_i T[i,k] * B[i,j]
+    flat = np.zeros(lead + (w * (wb + 1),))
+    np.matmul(t.T, b, out=flat[..., :w * wb].reshape(lead + (w, wb)))   # [k, j] = sum_i T[i,k] B[i,j]
     # flat[k*wb + j] viewed with rows of wb+1 puts prod[k, d+k] at [k, d]: a diagonal sum
-    cross = flat.reshape(w, wb + 1)[:, :n].sum(axis=0)
-    cum = np.zeros((2, b.shape[1] + 1))
-    np.cumsum(b.sum(axis=0), out=cum[0, 1:])
-    np.cumsum((b * b).sum(axis=0), out=cum[1, 1:])
-    box = cum[:, w:] - cum[:, :-w]                        # per-candidate sum R and sum R^2
+    cross = flat.reshape(lead + (w, wb + 1))[..., :n].sum(axis=-2)
+    cum = np.zeros((2,) + lead + (wb + 1,))
+    np.cumsum(b.sum(axis=-2), axis=-1, out=cum[0, ..., 1:])
+    np.cumsum((b * b).sum(axis=-2), axis=-1, out=cum[1, ..., 1:])
+    box = cum[..., w:] - cum[..., :-w]                    # per-candidate sum R and sum R^2
     ssd = float((t * t).sum()) - 2.0 * cross + box[1]
     if cost != "ssd":
         diff = float(t.sum()) - box[0]

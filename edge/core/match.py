@@ -67,11 +67,11 @@ def _invalid(reason: str, x: float = math.nan, y: float = math.nan, **extra: flo
     return Match(False, math.nan, cost, sigma, reason, x_px=x, y_px=y, **extra)
 
 
-def _round_half_away(v: float) -> int:
+def round_half_away(v: float) -> int:
     return int(math.copysign(math.floor(abs(v) + 0.5), v))
 
 
-def _check_images(left: object, right: object) -> str:
+def check_images(left: object, right: object) -> str:
     for name, img in (("left", left), ("right", right)):
         if not isinstance(img, np.ndarray):
             return f"{name} image is not a numpy array"
@@ -84,7 +84,7 @@ def _check_images(left: object, right: object) -> str:
     return ""
 
 
-class _Arith:
+class CostArithmetic:
     """The three arithmetic back-ends behind `impl`."""
 
     def __init__(self, impl: str, cost: str) -> None:
@@ -92,6 +92,7 @@ class _Arith:
         fn = {"int": cost_curve, "int-ref": cost_curve_reference, "float": cost_curve_float}[impl]
         self.curve_fn = partial(fn, cost=cost)
         self.cost = cost
+        self.dtype = np.float64 if self.is_float else np.int64
 
     def curve(self, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int, d_hi: int) -> np.ndarray:
         """Costs for d = d_lo .. d_hi of the window at column xa of a_band against b_band
@@ -107,7 +108,7 @@ class _Arith:
         return (sp.fit_curve_float if self.is_float else sp.fit_curve_q)(costs, d_first)
 
 
-def refine(arith: _Arith, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int,
+def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int,
            costs: np.ndarray, k0: int, method: str) -> tuple[float | int | None, str]:
     """Sub-pixel disparity around the integer minimum costs[k0] (d0 = d_lo + k0).
 
@@ -159,7 +160,7 @@ def search_range(x_int: int, width: int, window: int, min_disparity: int, max_di
     h = window // 2
     lo, hi = min_disparity, max_disparity
     if predicted_disparity is not None:
-        centre = _round_half_away(predicted_disparity)
+        centre = round_half_away(predicted_disparity)
         radius = DEFAULT_SEARCH_RADIUS if search_radius is None else search_radius
         lo, hi = max(lo, centre - radius), min(hi, centre + radius)
     return max(lo - 1, x_int + h + 2 - width), min(hi + 1, x_int - h)
@@ -182,7 +183,7 @@ def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, wind
         raise ValueError(f"window must be odd and >= 3, got {window}")
     if search_radius is not None and predicted_disparity is None:
         raise ValueError("search_radius needs predicted_disparity")
-    problem = _check_images(left, right)
+    problem = check_images(left, right)
     if problem:
         return _invalid(problem)
     try:
@@ -194,7 +195,7 @@ def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, wind
     if predicted_disparity is not None and not math.isfinite(float(predicted_disparity)):
         return _invalid("predicted disparity is not finite", xf, yf)
     height, width = left.shape
-    xi, yi, h = _round_half_away(xf), _round_half_away(yf), window // 2
+    xi, yi, h = round_half_away(xf), round_half_away(yf), window // 2
     if yi - h < 0 or yi + h >= height or xi - h - 1 < 0 or xi + h + 1 >= width:
         return _invalid("point too close to the image border for the window", xf, yf)
     a_band, b_band = left[yi - h:yi + h + 1], right[yi - h:yi + h + 1]
@@ -211,7 +212,7 @@ def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, wind
     if hi - lo < 2:
         return _invalid("empty search range (disparity limits or image border)", xf, yf, **extra)
 
-    arith = _Arith(impl, cost)
+    arith = CostArithmetic(impl, cost)
     costs = arith.curve(a_band, b_band, xi, lo, hi)
     k0 = int(np.argmin(costs))
     d0 = lo + k0

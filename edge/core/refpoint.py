@@ -1,0 +1,156 @@
+"""Sub-pixel reference point: follow a left-image point from one frame to the next.
+
+The thesis kept the left (reference) point at whole pixels, so every re-anchoring of the track
+jumped the window by up to half a pixel (SPEC.md, "What the thesis left open", item 3). Here the
+point moves at sub-pixel precision:
+
+1. integer 2-D search: ZSSD of the previous frame's window (at the rounded point) against every
+   offset (u, v) in a (2r+1)^2 neighbourhood of the current frame (exact integer costs, one
+   row curve per v), optionally around a predicted motion;
+2. validity: minimum strictly inside the square, best other local minimum at least min_ratio x
+   the best, texture enough in both directions;
+3. separable sub-pixel fits with the same machinery as the stereo matcher (`match.refine`):
+   along x on the rows at the best v, and along y on the transposed images at the best u,
+   each with the both-way half-pixel cancellation by default.
+
+Convention: cur(x + dx, y + dy) = prev(x, y); the motion found for the window at
+(round(x), round(y)) is attributed to (x, y) (as in `match_point`), so the new point is
+(x + dx, y + dy).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from edge.core.costs import cost_curve, gradient_energy
+from edge.core.fixedpoint import SUBPIX_BITS, from_q
+from edge.core.match import CostArithmetic, check_images, refine, round_half_away
+
+
+@dataclass(frozen=True)
+class PointTrack:
+    """Result of `track_point`: the point's position in the current frame."""
+
+    valid: bool
+    x_px: float
+    y_px: float
+    dx_px: float
+    dy_px: float
+    cost: float = math.nan
+    sigma_x_px: float = math.inf
+    sigma_y_px: float = math.inf
+    reason: str = ""
+
+
+def _fail(reason: str, x: float = math.nan, y: float = math.nan, sx: float = math.inf,
+          sy: float = math.inf) -> PointTrack:
+    return PointTrack(False, x, y, math.nan, math.nan, math.nan, sx, sy, reason)
+
+
+def _second_ratio_2d(costs: np.ndarray, iy: int, ix: int) -> float:
+    """Best 4-neighbour local minimum outside the 3x3 around (iy, ix), over the best cost."""
+    padded = np.pad(costs.astype(np.float64), 1, constant_values=np.inf)
+    c = padded[1:-1, 1:-1]
+    is_min = ((c <= padded[:-2, 1:-1]) & (c <= padded[2:, 1:-1])
+              & (c <= padded[1:-1, :-2]) & (c <= padded[1:-1, 2:]))
+    is_min[max(0, iy - 1):iy + 2, max(0, ix - 1):ix + 2] = False
+    if not is_min.any():
+        return math.inf
+    second, best = float(c[is_min].min()), float(costs[iy, ix])
+    if best <= 0:
+        return math.inf if second > 0 else 1.0
+    return second / best
+
+
+def _axis_fit(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d0: int,
+              method: str) -> tuple[float | None, str]:
+    """Sub-pixel shift d (b(x - d) = a(x)) around the integer d0, in px."""
+    # only the parabola needs the plain 3-point curve; cancellation builds its own passes
+    costs = arith.curve(a_band, b_band, xa, d0 - 1, d0 + 1) if method == "parabola" else np.zeros(3)
+    value, reason = refine(arith, a_band, b_band, xa, d0 - 1, costs, 1, method)
+    if value is None:
+        return None, reason
+    return (float(value) if arith.is_float else from_q(int(value), SUBPIX_BITS)), ""
+
+
+def track_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window: int = 15,
+                search_radius: int = 4, predicted_dx: float = 0.0, predicted_dy: float = 0.0,
+                subpixel: str = "cancel", noise_dn: float = 1.0, min_ratio: float = 1.1,
+                max_sigma_px: float = 0.3, impl: str = "int") -> PointTrack:
+    """Where did point (x, y) of `prev` go in `cur`? See the module doc."""
+    if window < 3 or window % 2 == 0 or search_radius < 1:
+        raise ValueError("window must be odd >= 3 and search_radius >= 1")
+    problem = check_images(prev, cur)
+    if problem:
+        return _fail(problem)
+    try:
+        xf, yf = float(x), float(y)
+        pu, pv = round_half_away(float(predicted_dx)), round_half_away(float(predicted_dy))
+    except (TypeError, ValueError, OverflowError):
+        return _fail("point or prediction is not a finite number")
+    if not (math.isfinite(xf) and math.isfinite(yf)):
+        return _fail("point is not finite", xf, yf)
+    height, width = prev.shape
+    h, r = window // 2, search_radius
+    xi, yi = round_half_away(xf), round_half_away(yf)
+    m = h + 4                       # window + the half-pixel passes' margin + the second fit
+    if (min(xi, xi + pu) - r - m < 0 or max(xi, xi + pu) + r + m >= width
+            or min(yi, yi + pv) - r - m < 0 or max(yi, yi + pv) + r + m >= height):
+        return _fail("point too close to the image border for window and search", xf, yf)
+
+    prev_t, cur_t = prev.T, cur.T
+    gx = gradient_energy(prev[yi - h:yi + h + 1], xi - h, window)
+    gy = gradient_energy(prev_t[xi - h:xi + h + 1], yi - h, window)
+    sx = noise_dn * math.sqrt(8.0 / gx) if gx else math.inf        # sqrt(2 / sum Ix^2)
+    sy = noise_dn * math.sqrt(8.0 / gy) if gy else math.inf
+    if not (sx <= max_sigma_px and sy <= max_sigma_px):
+        return _fail("too little texture in x or y", xf, yf, sx, sy)
+
+    arith = CostArithmetic(impl, "zssd")
+    a_rows = prev[yi - h:yi + h + 1]
+    template = a_rows[:, xi - h:xi + h + 1]
+    x0 = xi + pu - r - h
+    rows = cur[yi + pv - r - h:yi + pv + r + h + 1, x0:x0 + window + 2 * r]
+    bands = sliding_window_view(rows, window, axis=0).transpose(0, 2, 1)   # (2r+1, w, w+2r)
+    if impl == "int":
+        costs = cost_curve(template, bands, "zssd")                # [v index, u index], one call
+    else:
+        costs = np.stack([arith.curve_fn(template.astype(arith.dtype), band.astype(arith.dtype))
+                          for band in bands])
+    iy, ix = (int(i) for i in np.unravel_index(int(np.argmin(costs)), costs.shape))
+    if not (0 < iy < 2 * r and 0 < ix < 2 * r):
+        return _fail("minimum on the edge of the search square", xf, yf, sx, sy)
+    ratio = _second_ratio_2d(costs, iy, ix)
+    if ratio < min_ratio:
+        return _fail(f"ambiguous: second-best cost only {ratio:.3f}x the best", xf, yf, sx, sy)
+    u0, v0 = pu - r + ix, pv - r + iy
+
+    def along_x(v: int) -> tuple[float | None, str]:      # motion u on the rows at offset v
+        d, why = _axis_fit(arith, a_rows, cur[yi + v - h:yi + v + h + 1], xi, -u0, subpixel)
+        return (None if d is None else -d), why
+
+    def along_y(u: int) -> tuple[float | None, str]:      # motion v on the columns at offset u
+        d, why = _axis_fit(arith, prev_t[xi - h:xi + h + 1], cur_t[xi + u - h:xi + u + h + 1], yi, -v0,
+                           subpixel)
+        return (None if d is None else -d), why
+
+    # separable fits at the integer offsets, then again one row/column further towards the
+    # fractional offset; the estimate is linear in the cross-axis offset for a quadratic cost
+    # surface, so interpolating the two removes the cross-term bias (note §1.6)
+    u_a, why_u = along_x(v0)
+    v_a, why_v = along_y(u0)
+    if u_a is None or v_a is None:
+        return _fail(why_u or why_v, xf, yf, sx, sy)
+    ty, tx = v_a - v0, u_a - u0
+    u_b, why_u = along_x(v0 + (1 if ty >= 0 else -1))
+    v_b, why_v = along_y(u0 + (1 if tx >= 0 else -1))
+    if u_b is None or v_b is None:
+        return _fail(why_u or why_v, xf, yf, sx, sy)
+    u = u_a + abs(ty) * (u_b - u_a)
+    v = v_a + abs(tx) * (v_b - v_a)
+    best = float(costs[iy, ix]) * (window * window if arith.is_float else 1)
+    return PointTrack(True, xf + u, yf + v, u, v, best, sx, sy, "")
