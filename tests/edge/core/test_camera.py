@@ -132,7 +132,9 @@ def test_rig_projection_matches_opencv(left: PinholeCamera, right: PinholeCamera
         (right, rig.project(pts)[1], baseline_m / 2),
     ):
         r_wc = camera.rotation().T  # world -> camera
-        rvec, _ = cv2.Rodrigues(r_wc)
+        # cv2.Rodrigues(matrix) returns a zero vector whenever sin(angle) < 1e-5, so take the
+        # rotation vector from scipy's exact conversion; projectPoints stays the independent part.
+        rvec = Rotation.from_matrix(r_wc).as_rotvec()
         tvec = -r_wc @ np.array([centre_x, 0.0, 0.0])
         k = np.array([[camera.fx, 0.0, camera.cx], [0.0, camera.fy, camera.cy], [0.0, 0.0, 1.0]])
         cv_uv, _ = cv2.projectPoints(pts, rvec, tvec, k, np.array(camera.dist))
