@@ -326,6 +326,11 @@ BAD_CONFIGS = {
     "non-finite value": ("pipeline:\n  gate_sigma: .inf\n", "pipeline.gate_sigma", "finite"),
     "not YAML": ("pipeline: {window: 15\n", "", "expected a YAML document"),
     "top not a mapping": ("- 1\n- 2\n", "<top>", "a mapping"),
+    "proprietary talker": (  # $PA... would read as a proprietary sentence, not a talker
+        "outputs:\n  nmea:\n    - url: loop://\n      talker: PA\n",
+        "outputs.nmea[0].talker",
+        "[A-OQ-Z][A-Z0-9]",
+    ),
 }
 
 
