@@ -159,7 +159,9 @@ class NmeaPort:
     bytesize: Literal[7, 8] = setting(8, doc="data bits")
     parity: Literal["N", "E", "O"] = setting("N", doc="parity")
     stopbits: Literal[1, 2] = setting(1, doc="stop bits")
-    talker: str = setting("RA", pattern="[A-OQ-Z][A-Z0-9]", doc="talker id (RA radar, II, U0..U9; P is proprietary)")
+    talker: str = setting(
+        "RA", pattern="[A-OQ-Z][A-Z0-9]", doc="talker id (RA radar, II, U0..U9; P is proprietary)"
+    )
     sentences: tuple[Literal["TTM", "TLL"], ...] = setting(
         ("TTM", "TLL"), min_items=1, max_items=2, doc=_SENTENCES
     )
@@ -174,7 +176,9 @@ class UdpConfig:
     port: int = setting(60002, min=1, max=65535, doc="UDP port")
     interface: str = setting("0.0.0.0", check=_ipv4, doc="local address of the sending interface")
     ttl: int = setting(1, min=0, max=255, doc="multicast TTL")
-    source: str = setting("RA0001", pattern="[A-OQ-Z][A-Z0-9][0-9]{4}", doc="tag block s: (talker + 4 digits)")
+    source: str = setting(
+        "RA0001", pattern="[A-OQ-Z][A-Z0-9][0-9]{4}", doc="tag block s: (talker + 4 digits)"
+    )
     sentences: tuple[Literal["TTM", "TLL"], ...] = setting(
         ("TTM", "TLL"), min_items=1, max_items=2, doc=_SENTENCES
     )
