@@ -31,6 +31,8 @@ from edge.core.geodesy import world_axes, world_to_geodetic
 from edge.core.site import Site
 
 KNOT_MPS = 1852.0 / 3600.0  # one knot in m/s (international nautical mile)
+EARTH_RADIUS_M = 6_371_000.0  # mean radius, for the horizon dip
+REFRACTION_K = 0.13  # standard optical refraction coefficient (surveying): Earth looks R / (1 - k)
 
 
 def _wrap_deg(angle_deg: np.ndarray) -> np.ndarray:
@@ -64,6 +66,30 @@ def range_bearing(points_m: np.ndarray, heading_deg: float) -> tuple[np.ndarray,
     # bearing = heading + the angle of the point right of +Z
     bearing = _wrap_deg(heading_deg + np.degrees(np.arctan2(p[..., 0], p[..., 2])))
     return range_m, bearing
+
+
+def horizon_dip_rad(height_m: float, refraction_k: float = REFRACTION_K) -> float:
+    """Angle of the sea horizon below the horizontal for an eye `height_m` above the sea.
+
+    Straight rays over the effective Earth R_e = R / (1 - k) (standard refraction):
+    dip = arccos(R_e / (R_e + h)), about 0.19 deg at 40 m."""
+    r_e = EARTH_RADIUS_M / (1.0 - refraction_k)
+    return math.acos(r_e / (r_e + max(0.0, height_m)))
+
+
+def sea_range_m(depression_rad: np.ndarray, height_m: float,
+                refraction_k: float = REFRACTION_K) -> np.ndarray:
+    """Horizontal distance to where a ray `depression_rad` below the horizontal meets the sea.
+
+    Ray against the effective-Earth sphere (as `horizon_dip_rad`); inf at or above
+    the horizon. Used to check that a ship's waterline and its stereo range agree."""
+    r_e = EARTH_RADIUS_M / (1.0 - refraction_k)
+    a = np.asarray(depression_rad, dtype=np.float64)
+    r0 = r_e + max(0.0, height_m)
+    disc = r_e * r_e - (r0 * np.cos(a)) ** 2
+    with np.errstate(invalid="ignore"):
+        slant = r0 * np.sin(a) - np.sqrt(disc)
+    return np.where((disc >= 0.0) & (a > 0.0), slant * np.cos(a), np.inf)
 
 
 def world_to_latlon(points_m: np.ndarray, site: Site) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -114,3 +114,21 @@ def test_course_bearing_and_speed_agree_with_proj_geodesics(site: Site, range_m:
     sog, cog = speed_course(v, lat0, lon0, site)
     assert float(sog) * KNOT_MPS == pytest.approx(dist, rel=1e-3)
     assert abs((float(cog) - az_ship + 180.0) % 360.0 - 180.0) < 1e-3
+
+
+def test_horizon_dip_known_answer_and_sea_range() -> None:
+    from edge.core.geo import horizon_dip_rad, sea_range_m
+
+    # 25 m above the sea with standard refraction: 2.613 mrad (the simulator's akashi note), and the
+    # refraction-free dip is larger by 1/sqrt(1 - k)
+    assert horizon_dip_rad(25.0) == pytest.approx(2.613e-3, abs=1e-6)
+    assert horizon_dip_rad(25.0, 0.0) / horizon_dip_rad(25.0) == pytest.approx(1 / math.sqrt(0.87), rel=1e-4)
+    dip = horizon_dip_rad(25.0)
+    r_e = 6_371_000.0 / 0.87
+    assert float(sea_range_m(dip * (1 + 1e-9), 25.0)) == pytest.approx(math.sqrt(2 * r_e * 25.0), rel=1e-3)
+    assert math.isinf(float(sea_range_m(0.9 * dip, 25.0)))
+    assert math.isinf(float(sea_range_m(-0.01, 25.0)))
+    # steep rays: the flat-sea answer h / tan(a), less the curvature drop (range^2 / 2R_e) over the slope
+    a = 0.05
+    flat = 25.0 / math.tan(a)
+    assert float(sea_range_m(a, 25.0)) == pytest.approx(flat * (1 + flat / (2 * r_e) / math.tan(a)), rel=1e-4)
