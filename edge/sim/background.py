@@ -9,8 +9,8 @@ Per pixel, computed once per camera:
 - the wave texture is a sum of deep-water sinusoids over world (x, z). For a
   pixel, its footprint on the sea is the parallelogram spanned by the corner
   hit points, and the exact box average of a sinusoid of phase gradient g
-  over it is sinc(g_u / 2) sinc(g_v / 2) (numpy's sinc is normalised, hence
-  the 2 pi): far waves fade instead of aliasing.
+  over it is S(g_u / 2) S(g_v / 2) with S(x) = sin(x) / x: far waves fade
+  instead of aliasing.
 
 Because a sinusoid's time dependence factors out, cos(phi - w t) =
 cos(phi) cos(w t) + sin(phi) sin(w t), each frame's sea is one matrix-vector
@@ -25,6 +25,14 @@ from edge.sim.rays import EDGE_SAMPLES, CameraRays
 from edge.sim.scene import World
 
 
+def _sinc(x: np.ndarray) -> np.ndarray:
+    """sin(x) / x (unnormalised), 1 at 0; float32 in, float32 out."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.sin(x) / x
+    out[x == 0.0] = 1.0
+    return out
+
+
 class Background:
     """The static sky/sea radiance of one camera plus its per-frame wave term."""
 
@@ -37,8 +45,9 @@ class Background:
         sea_corner = np.isfinite(t_corner)
         rad_corner, scale_corner, hit_corner = self._radiance(corner_dirs, t_corner)
         del scale_corner
-        vv, uu = np.mgrid[0:h, 0:w].astype(np.float64)
-        centre_dirs = rays.dirs(uu, vv)
+        lut = rays.lut  # pixel centres: the mean of the four corners (the exact bilinear value)
+        centre_xy = 0.25 * (lut[:-1, :-1] + lut[:-1, 1:] + lut[1:, :-1] + lut[1:, 1:])
+        centre_dirs = np.concatenate([centre_xy, np.ones((h, w, 1))], axis=-1)
         t_centre = world.sea_hit(origin, centre_dirs)
         rad_centre, scale_centre, hit_centre = self._radiance(centre_dirs, t_centre)
 
@@ -65,13 +74,13 @@ class Background:
         waves = world.waves
         n = len(waves.omega)
         self.basis = np.zeros((len(self.sea_index), 2 * n), np.float32)
+        k_half = (0.5 * waves.k.T).astype(np.float32)  # half phase step per pixel: box average is sin(x)/x
         for start in range(0, len(self.sea_index), 1 << 18):  # chunks bound the temporaries
             idx = self.sea_index[start : start + (1 << 18)]
-            g_u = d_u.reshape(-1, 2)[idx] @ waves.k.T
-            g_v = d_v.reshape(-1, 2)[idx] @ waves.k.T
-            amp = waves.amplitude * np.sinc(g_u / (2 * np.pi)) * np.sinc(g_v / (2 * np.pi))
-            amp *= scale_centre.reshape(-1)[idx, None]
-            phase = world.wave_phase(hit_centre.reshape(-1, 3)[idx][:, [0, 2]])
+            amp = _sinc(d_u.reshape(-1, 2)[idx].astype(np.float32) @ k_half)
+            amp *= _sinc(d_v.reshape(-1, 2)[idx].astype(np.float32) @ k_half)
+            amp *= waves.amplitude.astype(np.float32) * scale_centre.reshape(-1)[idx, None].astype(np.float32)
+            phase = world.wave_phase(hit_centre.reshape(-1, 3)[idx][:, [0, 2]]).astype(np.float32)
             self.basis[start : start + len(idx), :n] = amp * np.cos(phase)
             self.basis[start : start + len(idx), n:] = amp * np.sin(phase)
 
