@@ -158,12 +158,20 @@ class Sweep:
 def sweep(condition: Condition, seeds: list[int] | range, matcher, *, n_fractions: int = 32,
           whole_px: int = 4, window: int = 15) -> Sweep:
     """Run `matcher(left, right, x, y) -> Match` on exact-shift pairs d = whole_px + k/n_fractions
-    (k = 0 .. n-1; n divides 32) for every texture seed. Noise uses seed-derived streams apart
-    from the texture stream, so a seed list fully determines the result."""
+    (k = 0 .. n-1; n divides 32) for every texture seed; see `sweep_many`."""
+    return sweep_many(condition, seeds, {"m": matcher}, n_fractions=n_fractions, whole_px=whole_px,
+                      window=window)["m"]
+
+
+def sweep_many(condition: Condition, seeds: list[int] | range, matchers: dict, *, n_fractions: int = 32,
+               whole_px: int = 4, window: int = 15) -> dict[str, Sweep]:
+    """Like `sweep` for several matchers on the very same pairs (rendered once). Noise uses
+    seed-derived streams apart from the texture stream, so a seed list fully determines the
+    result."""
     step = SAMPLES_PER_PX // n_fractions
     size_y, size_x = window + 6, window + 2 * whole_px + 12
     xc, yc = size_x - window // 2 - 5, size_y // 2
-    errors = np.full((len(seeds), n_fractions), np.nan)
+    errors = {name: np.full((len(seeds), n_fractions), np.nan) for name in matchers}
     crb = np.empty(len(seeds))
     noise_eff = float(np.hypot(condition.noise_dn, np.sqrt(1 / 12)))      # + uint8 rounding
     for i, seed in enumerate(seeds):
@@ -183,7 +191,9 @@ def sweep(condition: Condition, seeds: list[int] | range, matcher, *, n_fraction
                                vertical_offset_8ths=condition.vertical_8ths,
                                psf_sigma_px=condition.psf_sigma_px, noise_dn=condition.noise_dn,
                                fog_t=condition.fog_t, gain=condition.gain, offset_dn=condition.offset_dn)
-            m = matcher(pair.left, pair.right, xc, yc)
-            if m.valid:
-                errors[i, k] = m.disparity_px - pair.disparity_px
-    return Sweep(errors, crb, np.arange(n_fractions) / n_fractions)
+            for name, matcher in matchers.items():
+                m = matcher(pair.left, pair.right, xc, yc)
+                if m.valid:
+                    errors[name][i, k] = m.disparity_px - pair.disparity_px
+    fractions = np.arange(n_fractions) / n_fractions
+    return {name: Sweep(e, crb, fractions) for name, e in errors.items()}
