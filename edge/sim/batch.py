@@ -1,9 +1,13 @@
 """Render a whole simulation into a recording directory, on every core, reproducibly.
 
 Frames are independent (all randomness is fixed per frame by the seed), so
-worker processes forked after the per-camera precomputation render and write
-PNGs in any order while the parent writes frames.csv and truth.csv in order.
-The bytes do not depend on the number of workers.
+worker processes render and write PNGs in any order while the parent writes
+frames.csv and truth.csv in order; the bytes do not depend on the number of
+workers. Workers are *spawned* with single-threaded BLAS and OpenCV: forked
+children would inherit OpenBLAS's spinning thread pool and fight over the
+cores (measured: 100 akashi pairs in 12.9 s with two forked workers, 4.2 s
+with two single-threaded ones, 7.9 s with one). Each worker builds its own
+renderers from the scenario (the parent never needs them).
 """
 
 from __future__ import annotations
@@ -15,11 +19,21 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import cv2
+
 from edge.sim.recording import RecordingWriter, build_meta, image_paths, write_png
+from edge.sim.scenario import Scenario
 from edge.sim.scene import horizon_dip_rad
 from edge.sim.simulator import Simulation, Trigger
 
-_WORKER: tuple[Simulation, Path] | None = None  # set in the parent before forking
+_WORKER: tuple[Simulation, Path] | None = None  # this process's simulation and output directory
+_SINGLE_THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def _init_worker(scenario: Scenario, seed: int, root: Path) -> None:
+    global _WORKER
+    cv2.setNumThreads(1)
+    _WORKER = (Simulation(scenario, seed), root)
 
 
 def _render_one(trig: Trigger) -> int:
@@ -29,6 +43,21 @@ def _render_one(trig: Trigger) -> int:
     for path, image in zip(image_paths(root, trig.index), (left, right), strict=True):
         write_png(path, image)
     return trig.k
+
+
+def _spawn_pool(jobs: int, sim: Simulation, root: Path):
+    """A pool of spawned workers whose BLAS reads the single-thread settings at start-up."""
+    saved = {k: os.environ.get(k) for k in _SINGLE_THREAD_ENV}
+    os.environ.update(_SINGLE_THREAD_ENV)
+    try:
+        ctx = multiprocessing.get_context("spawn")
+        return ctx.Pool(jobs, initializer=_init_worker, initargs=(sim.scenario, sim.seed, root))
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def recording_meta(sim: Simulation, n_triggers: int) -> dict:
@@ -80,21 +109,20 @@ def write_recording(
     triggers = sim.triggers[: frames if frames is not None else len(sim.triggers)]
     todo = [t for t in triggers if t.index >= 0]
     with RecordingWriter(out, recording_meta(sim, len(triggers)), overwrite=overwrite) as writer:
-        _WORKER = (sim, writer.root)
-        try:
-            if jobs > 1 and len(todo) > 1:
-                ctx = multiprocessing.get_context("fork")
-                with ctx.Pool(min(jobs, len(todo))) as pool:
-                    for done, _ in enumerate(pool.imap(_render_one, todo, chunksize=2), 1):
-                        if progress:
-                            progress(done, len(todo))
-            else:
+        if jobs > 1 and len(todo) > 1:
+            with _spawn_pool(min(jobs, len(todo)), sim, writer.root) as pool:
+                for done, _ in enumerate(pool.imap(_render_one, todo, chunksize=2), 1):
+                    if progress:
+                        progress(done, len(todo))
+        else:
+            _WORKER = (sim, writer.root)
+            try:
                 for done, trig in enumerate(todo, 1):
                     _render_one(trig)
                     if progress:
                         progress(done, len(todo))
-        finally:
-            _WORKER = None
+            finally:
+                _WORKER = None
         for trig in todo:
             writer.add_frame(
                 trig.index, trig.t_ns, trig.seq_left, trig.seq_right, trig.t_left_ns, trig.t_right_ns

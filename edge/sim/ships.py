@@ -244,13 +244,13 @@ def _boat(length: float, seed: int) -> ShipModel:
             "hull",
             hull(length, beam, fb, 0.3 * length),
             Style(
-                0.85, (math.inf, math.inf, math.inf), 0.0, band_top_m=0.25 * fb, band_albedo=0.25, noise=0.04
+                0.40, (math.inf, math.inf, math.inf), 0.0, band_top_m=0.25 * fb, band_albedo=0.15, noise=0.04
             ),
         ),
         Part(
             "cabin",
             box(-0.20 * length, 0.15 * length, -0.36 * beam, 0.36 * beam, fb, top),
-            Style(0.75, (0.9, 0.12 * length, 0.9), 0.0, window=(0.7, 0.5), noise=0.03),
+            Style(0.85, (0.9, 0.12 * length, 0.9), 0.0, window=(0.7, 0.5), noise=0.03),
         ),
     )
     return ShipModel("boat", length, beam, parts, np.array([0.12 * length, 0.0, top - 0.3]), 4.0, seed)

@@ -18,6 +18,7 @@ The right camera is rendered with its true rotation, the calibrated one plus
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -63,19 +64,23 @@ class Simulation:
         rig = scenario.calibration.rig
         self.rig = rig
         self.world = World(scenario.site.height_m, spec.atmosphere, spec.sky, spec.sea, spec.sun)
-        error = spec.rig_error.right_rotation_deg
-        true_right = dataclasses.replace(
-            rig.right, rotation_deg=tuple(a + e for a, e in zip(rig.right.rotation_deg, error, strict=True))
-        )
-        half = rig.baseline_m / 2.0
-        self.views = (
-            ViewRenderer(CameraRays(rig.left, rig.width, rig.height, -half), self.world),
-            ViewRenderer(CameraRays(true_right, rig.width, rig.height, half), self.world),
-        )
         self.ships = build_ships(spec, scenario.path)
         self.triggers = self._schedule()
         self.pairs = [t for t in self.triggers if t.index >= 0]
         self.glints = self._glint_events()
+
+    @functools.cached_property
+    def views(self) -> tuple[ViewRenderer, ViewRenderer]:
+        """The two cameras' renderers, built on first use (ray tables, sky and sea integration)."""
+        rig = self.rig
+        error = self.scenario.spec.rig_error.right_rotation_deg
+        rotation = tuple(a + e for a, e in zip(rig.right.rotation_deg, error, strict=True))
+        true_right = dataclasses.replace(rig.right, rotation_deg=rotation)
+        half = rig.baseline_m / 2.0
+        return (
+            ViewRenderer(CameraRays(rig.left, rig.width, rig.height, -half), self.world),
+            ViewRenderer(CameraRays(true_right, rig.width, rig.height, half), self.world),
+        )
 
     # ---- randomness decided up front ------------------------------------------------------------
     def _schedule(self) -> list[Trigger]:
