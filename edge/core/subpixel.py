@@ -22,6 +22,7 @@ formed in Q10 and rounded once to Q8. Worst-case difference from the float refer
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -48,18 +49,20 @@ def parabola_float(c_minus: float, c_zero: float, c_plus: float) -> float | None
     return num / den
 
 
-def interior_argmin(costs: np.ndarray) -> int | None:
+def interior_argmin(costs: np.ndarray | list) -> int | None:
     """Index of the first minimum if it is not at either end of the curve, else None."""
-    k = int(np.argmin(costs))
-    return k if 0 < k < len(costs) - 1 else None
+    c = costs.tolist() if isinstance(costs, np.ndarray) else costs
+    k = c.index(min(c))
+    return k if 0 < k < len(c) - 1 else None
 
 
 def fit_curve_q(costs: np.ndarray, d_first: int) -> int | None:
     """Sub-pixel minimum (Q10 px) of an integer curve whose entry k is disparity d_first + k."""
-    k = interior_argmin(costs)
+    c = costs.tolist()                       # Python ints: exact, and faster for 3-5 entries
+    k = interior_argmin(c)
     if k is None:
         return None
-    off = parabola_q(int(costs[k - 1]), int(costs[k]), int(costs[k + 1]))
+    off = parabola_q(c[k - 1], c[k], c[k + 1])
     if off is None:
         return None
     return ((d_first + k) << FIT_BITS) + off
@@ -116,9 +119,8 @@ def _equalise_contrast(regs: np.ndarray, w: int, as_float: bool) -> np.ndarray:
     ZSSD removes an offset but not a gain: with R = g*L the fitted minimum of sum (L' - g R')^2
     moves with how sum R'^2 varies across candidates. Matching the contrast first (integer:
     left x 256, right x g in Q8) makes the half-pixel passes gain-invariant."""
-    centre = regs[:, :, 2:2 + w]
-    n = w * w
-    energy = n * (centre * centre).sum(axis=(1, 2)) - centre.sum(axis=(1, 2)) ** 2
+    centre = regs[:, :, 2:2 + w].reshape(2, -1)
+    energy = (w * w) * np.einsum("ij,ij->i", centre, centre) - centre.sum(axis=1) ** 2
     if as_float:
         if energy[0] <= 0 or energy[1] <= 0:
             return regs
@@ -126,6 +128,12 @@ def _equalise_contrast(regs: np.ndarray, w: int, as_float: bool) -> np.ndarray:
         return regs * np.array([1.0, gain])[:, None, None]
     g_q8 = contrast_gain_q8(int(energy[0]), int(energy[1]))
     return regs * np.array([1 << SUBPIX_BITS, g_q8], dtype=np.int64)[:, None, None]
+
+
+@functools.cache
+def _shift_index(w: int) -> np.ndarray:
+    """Column indices of the five windows at shifts p = 0..4 of a w+4 wide region."""
+    return np.arange(5)[:, None] + np.arange(w)[None, :]
 
 
 def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int, cost: str,
@@ -145,7 +153,7 @@ def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d
     regs = regs.astype(np.float64 if as_float else np.int64)                # (2, w, w+5)
     if cost != "ssd":
         regs = _equalise_contrast(regs, w, as_float)
-    cols = np.arange(5)[:, None] + np.arange(w)[None, :]                    # shifts p = 0..4
+    cols = _shift_index(w)                                                  # shifts p = 0..4
     half = (regs[:, :, :-1] + regs[:, :, 1:])[:, :, cols]                   # (2, w, 5, w) Lh, Rh
     dbl = 2 * regs[:, :, cols[1:]]                                          # (2, w, 4, w) 2L, 2R
     cands = np.concatenate((half, dbl), axis=2)                             # p = 0..4, 1..4
