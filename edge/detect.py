@@ -1,0 +1,244 @@
+"""Ship detection in the left image: compact local-contrast blobs on the sea, at or below the horizon.
+
+Runs every k-th pair on an image shrunk by `decimation` (INTER_AREA), so it
+costs a few milliseconds even at 2048 x 1536:
+
+1. Horizon. Predicted from the calibration and the site height (the dip of
+   the horizon, `geo.horizon_dip_rad`, mapped through the left camera model
+   column by column), then refined from the image: the strongest mean vertical
+   gradient near the prediction in each of several column bands, the median
+   offset over the bands (so a ship on the horizon cannot pull it), clamped to
+   a few pixels of the prediction and smoothed over time.
+2. Contrast. Vertical-line white and black top-hats: they keep whatever is
+   shorter than the structuring element vertically and brighter or darker than
+   its surroundings, and remove the sky gradient, the sea gradient and the
+   horizon step (all extended vertically or horizontally). Ships are bright
+   superstructure and dark hulls, so both polarities count.
+3. Threshold per row band, from the robust spread (median + k MAD) of the
+   contrast image on the sea: the wave texture near the camera is stronger
+   than far out, and a fixed threshold would either flood the foreground or
+   miss the fog.
+4. Blobs: a horizontal closing joins hull and superstructure, connected
+   components with stats, nearby boxes merged. Kept when at least
+   `min_ship_px` long (eq. 3.12 sets that length), tall enough to be a body
+   rather than a wave crest, their bottom at or below the horizon (on the sea,
+   or hull-down beyond it) and their top not far below it... for the size they
+   have. Glints (a few pixels) fail the size test; wave crests the shape and
+   height tests; what still slips through must persist and match in stereo
+   at the sea range of its waterline before it becomes a track (tracking.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from edge.core.geo import horizon_dip_rad, sea_range_m
+from edge.core.rectify import Rectifier
+
+HORIZON_SEARCH_DEG = 0.6  # refinement searches this far either side of the predicted horizon
+HORIZON_BANDS = 8  # column bands for the horizon refinement
+HORIZON_SMOOTHING = 0.3  # weight of a new horizon offset against the running one
+THRESHOLD_K = 6.0  # threshold = median + k * 1.4826 MAD of the contrast, per row band
+MIN_CONTRAST_DN = 6.0  # never below this: sensor noise and quantisation
+ROW_BANDS = 6  # row bands for the thresholds below the horizon
+MIN_HEIGHT_RATIO = 0.08  # a ship's silhouette is at least this tall for its length (crests are flatter)
+MIN_HEIGHT_M = 2.0  # a 10 m boat stands 2.2 m above the water; a wave band at 500 m is ~1 m
+MIN_HEIGHT_PX = 2.0  # and at least this many full-resolution rows (a 70 m coaster at 3 km: 3 rows)
+MIN_LENGTH_SHARE = 0.7  # a blob may look this much shorter than the ship (threshold eats faint ends)
+BACKGROUND_STEP = 2  # every n-th column enters the row medians
+
+
+@dataclass(frozen=True, slots=True)
+class Blob:
+    """A candidate ship in full-resolution raw left-image pixels; the box is [x0, x1) x [y0, y1)."""
+
+    x0: int
+    y0: int
+    x1: int
+    y1: int
+    area_px: int  # full-resolution pixels above threshold
+    contrast_dn: float  # mean top-hat response inside the blob
+
+    @property
+    def width(self) -> int:
+        return self.x1 - self.x0
+
+    @property
+    def height(self) -> int:
+        return self.y1 - self.y0
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        return 0.5 * (self.x0 + self.x1 - 1), 0.5 * (self.y0 + self.y1 - 1)
+
+    def iou(self, other: Blob) -> float:
+        ix = max(0, min(self.x1, other.x1) - max(self.x0, other.x0))
+        iy = max(0, min(self.y1, other.y1) - max(self.y0, other.y0))
+        inter = ix * iy
+        union = self.width * self.height + other.width * other.height - inter
+        return inter / union if union > 0 else 0.0
+
+
+class Detector:
+    """Finds ship blobs in left images of one rig; keeps the refined horizon between calls."""
+
+    def __init__(self, rectifier: Rectifier, site_height_m: float, *, decimation: int = 2,
+                 min_ship_px: int = 20) -> None:
+        self.rect = rectifier
+        self.site_height_m = site_height_m
+        self.decimation = max(1, int(decimation))
+        self.min_ship_px = int(min_ship_px)
+        rig = rectifier.rig
+        self.width, self.height = rig.width, rig.height
+        self.horizon_raw = self._predicted_horizon(site_height_m)  # (width,) raw left rows, full res
+        self.horizon_offset_px = 0.0  # refinement, full-resolution rows
+        self.search_px = max(3.0, rectifier.f_px * math.tan(math.radians(HORIZON_SEARCH_DEG)))
+
+    def _predicted_horizon(self, site_height_m: float) -> np.ndarray:
+        """Row of the sea horizon in each raw left column: the dip mapped through the camera model."""
+        t = math.tan(horizon_dip_rad(site_height_m))
+        u_rect = np.linspace(-0.25 * self.width, 1.25 * self.width, 64)
+        x = self.rect.rect_to_normalised(np.stack([u_rect, np.full_like(u_rect, self.rect.cy)], -1))[:, 0]
+        # the horizon is a cone of constant dip: y = tan(dip) * sqrt(1 + x^2) on the normalised plane
+        rect = self.rect.normalised_to_rect(np.stack([x, t * np.sqrt(1.0 + x * x)], -1))
+        raw = self.rect.rect_to_raw(rect, 0)
+        ok = np.isfinite(raw).all(axis=1)
+        order = np.argsort(raw[ok, 0])
+        return np.interp(np.arange(self.width), raw[ok, 0][order], raw[ok, 1][order])
+
+    @property
+    def horizon_row(self) -> np.ndarray:
+        """Current (refined) horizon row per raw left column, full resolution."""
+        return self.horizon_raw + self.horizon_offset_px
+
+    def _refine_horizon(self, small: np.ndarray) -> np.ndarray:
+        dec = self.decimation
+        hs, ws = small.shape
+        pred = self.horizon_raw[::dec][:ws] / dec + 0.5 / dec - 0.5
+        radius = int(math.ceil(self.search_px / dec)) + 1
+        grad = cv2.Sobel(small, cv2.CV_32F, 0, 1, ksize=3)
+        offsets = []
+        for band in np.array_split(np.arange(ws), HORIZON_BANDS):
+            rows = np.round(pred[band]).astype(int)
+            k = np.arange(-radius, radius + 1)
+            idx = rows[None, :] + k[:, None]
+            if idx.min() < 1 or idx.max() >= hs - 1:
+                continue
+            profile = np.abs(grad[idx, band[None, :]].mean(axis=1))
+            best = int(np.argmax(profile))
+            if 0 < best < len(k) - 1 and profile[best] > 2.0 * np.median(profile):
+                c_m, c_0, c_p = profile[best - 1:best + 2]
+                den = c_m - 2.0 * c_0 + c_p
+                frac = 0.5 * (c_m - c_p) / den if den < 0 else 0.0
+                offsets.append((k[best] + frac) * dec)
+        if len(offsets) >= max(2, HORIZON_BANDS // 2):
+            new = float(np.clip(np.median(offsets), -self.search_px, self.search_px))
+            self.horizon_offset_px += HORIZON_SMOOTHING * (new - self.horizon_offset_px)
+        return self.horizon_row[::dec][:ws] / dec
+
+    def detect(self, left: np.ndarray) -> list[Blob]:
+        """Candidate ships in one left image (grey uint8, full resolution), left to right."""
+        dec = self.decimation
+        small = left if dec == 1 else cv2.resize(left, (self.width // dec, self.height // dec),
+                                                 interpolation=cv2.INTER_AREA)
+        hs, ws = small.shape
+        horizon = self._refine_horizon(small)
+        shifts = self._shifts(horizon)
+        rows = np.clip(np.arange(hs)[:, None] + shifts[None, :], 0, hs - 1)
+        flat = small[rows, np.arange(ws)[None, :]].astype(np.int16)  # horizon-level rows
+        background = np.median(flat[:, ::BACKGROUND_STEP], axis=1).astype(np.int16)
+        # signed residual, averaged over a small box: noise drops by its sqrt(area), a solid hull does not
+        box = (max(3, (self.min_ship_px // (4 * dec)) | 1), 3 if dec == 1 else 1)
+        residual = np.abs(cv2.blur((flat - background[:, None]).astype(np.float32), box))
+        levels = self._levels(residual, int(round(float(np.median(horizon - shifts)))))
+        mask = (residual > levels[:, None]).astype(np.uint8)
+        if dec == 1:  # single-row streaks are crests (at dec >= 2 one row is already two)
+            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_RECT, (1, 2)))
+        close_w = max(3, int(round(self.min_ship_px / (4 * dec))) | 1)
+        closing = cv2.getStructuringElement(cv2.MORPH_RECT, (close_w, 3))
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, closing)
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        boxes = [[int(x), int(y), int(x + w), int(y + h), int(a), i]
+                 for i, (x, y, w, h, a) in enumerate(stats[1:], start=1) if w * dec >= self.min_ship_px // 2]
+        blobs = []
+        for x0, y0, x1, y1, area, labs in _merge(boxes, gap=close_w):
+            if (x1 - x0) * dec < MIN_LENGTH_SHARE * self.min_ship_px:  # a faint hull's ends sink in noise
+                continue
+            sel = np.isin(labels[y0:y1, x0:x1], labs)
+            resp = float(residual[y0:y1, x0:x1][sel].mean())
+            dy = shifts[x0:x1]  # back from horizon-level rows to image rows
+            blob = Blob(x0 * dec, (y0 + int(dy.min())) * dec, x1 * dec, (y1 + int(dy.max())) * dec,
+                        area * dec * dec, resp)
+            if self._plausible(blob, horizon):
+                blobs.append(blob)
+        return blobs
+
+    def _shifts(self, horizon: np.ndarray) -> np.ndarray:
+        """Per-column row shift that levels the horizon (a rolled camera tilts it)."""
+        return np.round(horizon - np.median(horizon)).astype(np.intp)
+
+    def _levels(self, residual: np.ndarray, horizon_row: int) -> np.ndarray:
+        """Threshold per row: median + k MAD of |residual| over the row band (sky above, sea bands below)."""
+        hs = residual.shape[0]
+        levels = np.empty(hs, np.float32)
+        sample = residual[:, ::BACKGROUND_STEP]
+        top = int(np.clip(horizon_row, 1, hs - 1))
+        bands = [np.arange(0, top)] + list(np.array_split(np.arange(top, hs), ROW_BANDS))
+        for band in bands:
+            if len(band):
+                levels[band] = _robust_level(sample[band])
+        return levels
+
+    def _plausible(self, blob: Blob, horizon: np.ndarray) -> bool:
+        """Shape and sea/sky context: a body on the sea, not a crest, a glint or something in the sky."""
+        dec = self.decimation
+        if blob.height < max(MIN_HEIGHT_PX, MIN_HEIGHT_RATIO * blob.width):
+            return False
+        cols = np.arange(blob.x0 // dec, max(blob.x0 // dec + 1, blob.x1 // dec))
+        h_row = float(np.median(horizon[np.clip(cols, 0, len(horizon) - 1)])) * dec
+        # the waterline is on or below the horizon (within a little refraction and refinement slack)
+        h_row = min(h_row, float(np.median(self.horizon_raw[np.clip(cols * dec, 0, self.width - 1)])))
+        if blob.y1 < h_row - max(2.0 * dec, 0.1 * blob.height):
+            return False
+        # metric height at the sea range of the waterline: crests and troughs are flat streaks
+        u, v = self.rect.raw_to_rect(np.array([0.5 * (blob.x0 + blob.x1), blob.y1 - 0.5]), 0)
+        range_m = sea_range_at(self.rect, self.site_height_m, u, v)
+        return blob.height * range_m / self.rect.f_px >= MIN_HEIGHT_M
+
+
+def sea_range_at(rect: Rectifier, site_height_m: float, u: float, v: float) -> float:
+    """Horizontal range where the ray through rectified pixel (u, v) meets the sea (inf above the horizon)."""
+    x, y = rect.rect_to_normalised(np.array([u, v]))
+    return float(sea_range_m(math.atan2(y, math.hypot(1.0, x)), site_height_m))
+
+
+def _robust_level(values: np.ndarray) -> float:
+    if values.size == 0:
+        return 255.0
+    med = float(np.median(values))
+    mad = float(np.median(np.abs(values - med)))
+    return max(MIN_CONTRAST_DN, med + THRESHOLD_K * 1.4826 * mad)
+
+
+def _merge(boxes: list[list], gap: int) -> list[tuple[int, int, int, int, int, list[int]]]:
+    """Union of boxes that overlap once grown by `gap` horizontally and 1 row vertically (one ship)."""
+    merged = [(b[0], b[1], b[2], b[3], b[4], [b[5]]) for b in sorted(boxes)]
+    changed = True
+    while changed:
+        changed = False
+        out: list[tuple[int, int, int, int, int, list[int]]] = []
+        for b in merged:
+            for j, a in enumerate(out):
+                if b[0] <= a[2] + gap and a[0] <= b[2] + gap and b[1] <= a[3] + 1 and a[1] <= b[3] + 1:
+                    out[j] = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]),
+                              a[4] + b[4], a[5] + b[5])
+                    changed = True
+                    break
+            else:
+                out.append(b)
+        merged = out
+    return merged

@@ -1,0 +1,208 @@
+"""Pipeline: FramePair -> list[ShipFix], the whole measurement chain of DESIGN.md.
+
+    detect (every k-th pair, decimated left image)     edge.detect
+    -> TrackTable: associate, birth/confirm/coast/drop  edge.tracking
+    -> per track: left point, right match, filter       edge.trackpoint
+    -> triangulate (eq. 4.1) and error (eq. 4.5)        edge.core.triangulation
+    -> range, bearing, lat/lon, SOG/COG                  edge.core.geo
+
+The daemon and `mast-stereo replay` run the same object. It is synchronous
+and deterministic: no clocks, no randomness, no threads, so the same pairs
+give the same fixes bit for bit. A pair it cannot use (wrong size or type,
+an exception deep in a track) is counted and skipped, never raised: the
+daemon must keep running. Gaps in `t_ns` longer than a frame period are
+counted as skipped pairs and the filters coast through them.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from drivers.camera.base import FramePair
+from edge.calibration import Calibration
+from edge.config import PipelineConfig
+from edge.core.geo import range_bearing, speed_course, world_to_latlon
+from edge.core.rectify import Rectifier
+from edge.core.site import Site
+from edge.core.triangulation import position_error, triangulate_normalised
+from edge.detect import Detector
+from edge.fix import ShipFix, TrackStatus
+from edge.tracking import TableSettings, Track, TrackTable
+from edge.trackpoint import FILTERS, SUBPIXELS, PointSettings
+
+log = logging.getLogger(__name__)
+
+MOTION_AFTER_S = 2.0  # SOG/COG are reported once the disparity filter has run this long
+MIN_COURSE_KN = 0.5  # below this speed the course is unknown (None)
+
+
+@dataclass
+class Counters:
+    """What the pipeline did with the pairs it was given (reported by replay and the daemon)."""
+
+    pairs: int = 0  # pairs given to step()
+    processed: int = 0  # pairs that went through the whole chain
+    bad_input: int = 0  # pairs refused (wrong size, type, or time going backwards)
+    failed: int = 0  # pairs abandoned after an unexpected error
+    gaps: int = 0  # frame periods without a pair (dropped upstream), coasted through
+    detections: int = 0  # detection passes run
+    fixes: int = 0
+
+
+class Pipeline:
+    """One rig's processing state; call `step` with each pair in time order."""
+
+    def __init__(self, calibration: Calibration, config: PipelineConfig | None = None, *, fps: float = 10.0,
+                 site: Site | None = None, subpixel: str = "cancel", filter: str | None = None,
+                 utc_offset_ns: int = 0) -> None:
+        cfg = config or PipelineConfig()
+        site = site or calibration.site
+        if site is None:
+            raise ValueError("the pipeline needs a site (lat/lon/height/heading) for positions")
+        if subpixel not in SUBPIXELS or (filter is not None and filter not in FILTERS):
+            raise ValueError(f"subpixel must be one of {SUBPIXELS}, filter one of {FILTERS}")
+        self.site, self.fps, self.cfg = site, float(fps), cfg
+        self.utc_offset_ns = int(utc_offset_ns)
+        self.rig = calibration.rig
+        self.rect = Rectifier(self.rig)
+        self.detector = Detector(self.rect, site.height_m, decimation=cfg.detect_decimation,
+                                 min_ship_px=cfg.min_ship_px)
+        self.point_settings = PointSettings(
+            fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=cfg.cost,
+            subpixel=subpixel,
+            filter=filter or cfg.filter, butterworth_cutoff_hz=cfg.butterworth_cutoff_hz,
+            gate_sigma=cfg.gate_sigma, reacquire_s=cfg.coast_s)
+        self.table = TrackTable(self.rect, site.height_m, self.point_settings,
+                                TableSettings(coast_s=cfg.coast_s, max_tracks=cfg.max_tracks,
+                                              waterline_tol_px=2.0 + 2.0 * cfg.detect_decimation))
+        self.counters = Counters()
+        self._last_t_ns: int | None = None
+        self._since_detect = cfg.detect_every - 1  # detect on the first pair
+        self._logged: set[str] = set()
+
+    # ------------------------------------------------------------ per pair
+    def step(self, pair: FramePair) -> list[ShipFix]:
+        """Process one pair; the fixes of every live track that has a position."""
+        c = self.counters
+        c.pairs += 1
+        images = self._images(pair)
+        if images is None:
+            c.bad_input += 1
+            return []
+        try:
+            fixes = self._step(*images, pair.t_ns)
+        except Exception as exc:  # a fault in one pair must not stop the appliance
+            c.failed += 1
+            self._log_once(f"{type(exc).__name__}", "pair at t_ns=%d abandoned: %r", pair.t_ns, exc)
+            return []
+        c.processed += 1
+        c.fixes += len(fixes)
+        return fixes
+
+    def _images(self, pair: FramePair) -> tuple[np.ndarray, np.ndarray] | None:
+        out = []
+        for name, image in (("left", pair.left), ("right", pair.right)):
+            if not isinstance(image, np.ndarray) or image.dtype != np.uint8:
+                self._log_once(f"type-{name}", "%s image is not 8-bit; pair skipped", name)
+                return None
+            if image.ndim == 3 and image.shape[2] == 3:
+                image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+            if image.shape != (self.rig.height, self.rig.width):
+                self._log_once(f"shape-{name}", "%s image is %s, the calibration says %dx%d; pair skipped",
+                               name, image.shape, self.rig.width, self.rig.height)
+                return None
+            out.append(image)
+        if self._last_t_ns is not None and pair.t_ns <= self._last_t_ns:
+            self._log_once("time", "pair time does not increase (t_ns=%d); pair skipped", pair.t_ns)
+            return None
+        return out[0], out[1]
+
+    def _step(self, left: np.ndarray, right: np.ndarray, t_ns: int) -> list[ShipFix]:
+        skipped = 0
+        if self._last_t_ns is not None:
+            periods = int(round((t_ns - self._last_t_ns) * self.fps / 1e9))
+            skipped = max(0, periods - 1)
+            self.counters.gaps += skipped
+        self._last_t_ns = t_ns
+        self._since_detect += 1 + skipped
+        boxes = None
+        if self._since_detect >= self.cfg.detect_every:
+            self._since_detect = 0
+            self.counters.detections += 1
+            boxes = [self._rect_box(b.x0, b.y0, b.x1, b.y1) for b in self.detector.detect(left)]
+        tracks = self.table.step(left, right, t_ns, skipped, boxes)
+        return self._fixes(tracks, t_ns)
+
+    def _rect_box(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+        """Raw left-image box -> rectified box (corners and edge midpoints mapped)."""
+        xs, ys = (x0 - 0.5, 0.5 * (x0 + x1) - 0.5, x1 - 0.5), (y0 - 0.5, 0.5 * (y0 + y1) - 0.5, y1 - 0.5)
+        pts = self.rect.raw_to_rect(np.array([(x, y) for x in xs for y in ys]), 0)
+        return np.array([pts[:, 0].min() + 0.5, pts[:, 1].min() + 0.5, pts[:, 0].max() + 0.5,
+                         pts[:, 1].max() + 0.5])
+
+    # ------------------------------------------------------------ fixes
+    def _fixes(self, tracks: list[Track], t_ns: int) -> list[ShipFix]:
+        live = [t for t in tracks if t.point.disparity is not None and t.point.disparity > 0.0]
+        if not live:
+            return []
+        f, b = self.rect.f_px, self.rig.baseline_m
+        use_filtered_u = self.point_settings.filter == "kalman"
+        u = np.array([t.point.u_filtered if use_filtered_u and t.point.u_filtered is not None else t.point.u
+                      for t in live])
+        v = np.array([t.point.v for t in live])
+        d = np.array([t.point.disparity for t in live])
+        xy_l = self.rect.rect_to_normalised(np.stack([u, v], -1))
+        xy_r = xy_l - np.stack([d / f, np.zeros_like(d)], -1)
+        world = triangulate_normalised(xy_l, xy_r, b)  # eq. 4.1
+        sigma_d = np.array([t.point.sigma_px for t in live])
+        err = position_error(world, sigma_d / f, b)  # eq. 4.5, the far side (the larger one)
+        sigma_m = np.where(np.isfinite(err).all(axis=-1), np.hypot(err[..., 0], err[..., 2]), math.inf)
+        range_m, bearing = range_bearing(world, self.site.heading_deg)
+        lat, lon, _ = world_to_latlon(world, self.site)
+        # world velocity from d' and u': Z = fB/d, X = B (u - cx) / d - B / 2
+        d_rate = np.array([t.point.rate_pxps for t in live])
+        u_rate = np.array([t.point.u_rate_pxps for t in live])
+        vz = -f * b * d_rate / d**2
+        vx = b * u_rate / d - b * (u - self.rect.cx) * d_rate / d**2
+        sog, cog = speed_course(np.stack([vx, np.zeros_like(vx), vz], -1), lat, lon, self.site)
+        fixes = []
+        for i, t in enumerate(live):
+            moving = self.point_settings.filter != "none" and t.point.updates >= MOTION_AFTER_S * self.fps
+            box = t.box
+            fixes.append(ShipFix(
+                t_ns=t_ns + self.utc_offset_ns, track_id=t.id, status=t.status,
+                x_m=float(world[i, 0]), y_m=float(world[i, 1]), z_m=float(world[i, 2]),
+                range_m=float(range_m[i]), bearing_deg=float(bearing[i]),
+                lat_deg=float(lat[i]), lon_deg=float(lon[i]),
+                sog_kn=float(sog[i]) if moving else None,
+                cog_deg=float(cog[i]) if moving and sog[i] >= MIN_COURSE_KN else None,
+                sigma_m=float(sigma_m[i]), disparity_px=float(d[i]), age_s=t.age_s(t_ns),
+                length_m=float((box[2] - box[0]) * world[i, 2] / f)))
+        return fixes
+
+    def _log_once(self, key: str, msg: str, *args: object) -> None:
+        if key not in self._logged:
+            self._logged.add(key)
+            log.warning(msg, *args)
+
+
+def stage_pipelines(calibration: Calibration, config: PipelineConfig | None = None, *, fps: float = 10.0,
+                    site: Site | None = None) -> dict[str, Pipeline]:
+    """The thesis's three stages plus ours, side by side (tools/evaluate): whole-pixel, sub-pixel
+    (parabola, eq. 5.2), filtered (Butterworth, eq. 6.1), and the product (cancellation + Kalman)."""
+    cfg = config or PipelineConfig()
+    return {
+        "whole-pixel": Pipeline(calibration, cfg, fps=fps, site=site, subpixel="none", filter="none"),
+        "sub-pixel": Pipeline(calibration, cfg, fps=fps, site=site, subpixel="parabola", filter="none"),
+        "butterworth": Pipeline(calibration, replace(cfg, cost="ssd"), fps=fps, site=site,
+                                subpixel="parabola", filter="butterworth"),
+        "product": Pipeline(calibration, cfg, fps=fps, site=site),
+    }
+
+
+__all__ = ["Counters", "Pipeline", "TrackStatus", "stage_pipelines"]

@@ -1,0 +1,218 @@
+"""TrackTable: ship tracks from detections and per-pair measurements, with the Q/T/L lifecycle.
+
+Every pair, each live track follows its reference point and measures its
+disparity (`edge.trackpoint`). On detection pairs (every k-th), detections
+are associated to tracks by the Hungarian method
+(`scipy.optimize.linear_sum_assignment`) on 1 - IoU of the detection's box
+and the track's box carried along with its point, gated at a minimum overlap
+(or the point inside the box). Then:
+
+- an associated detection *confirms* its track; when the ship's measured
+  disparity disagrees with the sea range of the box's bottom row (the
+  waterline, `geo.sea_range_m`) it does not: a glint matched to the wrong
+  place, a reflection, or an object that is not on the sea;
+- an unassociated detection that overlaps no track is born as a new track
+  (ACQUIRING, Q) with a fresh id — ids are never reused — if there is room
+  and its first match (when valid) passes the same waterline check;
+- Q becomes TRACKING (T) after `confirm_n` of the last `confirm_m`
+  detection passes confirmed it and its filter runs; a Q track that can no
+  longer reach that is dropped (glints and wave crests do not persist);
+- T becomes LOST (L) when no measurement was accepted for `coast_s`, or no
+  detection confirmed it for `unconfirmed_s`; L turns back to T when both
+  resume, and is dropped `drop_s` after it turned L.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from edge.core.rectify import Rectifier
+from edge.detect import sea_range_at
+from edge.fix import TrackStatus
+from edge.trackpoint import Designs, PointSettings, TrackPoint, reference_point
+
+MIN_IOU = 0.1  # association gate (or the track's point inside the detection's box)
+
+
+@dataclass(frozen=True)
+class TableSettings:
+    confirm_n: int = 3
+    confirm_m: int = 5
+    coast_s: float = 3.0
+    unconfirmed_s: float = 10.0
+    drop_s: float = 5.0
+    max_tracks: int = 32
+    waterline_tol_px: float = 4.0  # rows of slack in the waterline check (detection box bottom)
+    max_ship_length_m: float = 400.0  # the point may be this much farther than the waterline's nearest
+
+
+class Track:
+    """One ship: id, lifecycle and box; the measurement chain lives in `point`."""
+
+    def __init__(self, track_id: int, t_ns: int, point: TrackPoint, box: np.ndarray, confirm_m: int) -> None:
+        self.id = track_id
+        self.born_ns = t_ns
+        self.status = TrackStatus.ACQUIRING
+        self.point = point
+        self.box_rel = box - np.array([point.u, point.v, point.u, point.v])  # box relative to the point
+        self.confirmations: deque[bool] = deque([True], maxlen=confirm_m)
+        self.last_measured_ns = t_ns
+        self.last_confirmed_ns = t_ns
+        self.lost_since_ns: int | None = None
+        self.alive = True
+
+    @property
+    def box(self) -> np.ndarray:
+        return self.box_rel + np.array([self.point.u, self.point.v, self.point.u, self.point.v])
+
+    def age_s(self, t_ns: int) -> float:
+        return (t_ns - self.born_ns) / 1e9
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+    inter = ix * iy
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / union if union > 0 else 0.0
+
+
+def _contains(box: np.ndarray, u: float, v: float) -> bool:
+    return bool(box[0] <= u < box[2] and box[1] <= v < box[3])
+
+
+class TrackTable:
+    """All live tracks of one rig; `step` once per pair, with the detections on detection pairs."""
+
+    def __init__(self, rect: Rectifier, site_height_m: float, point_settings: PointSettings,
+                 settings: TableSettings) -> None:
+        self.rect = rect
+        self.site_height_m = site_height_m
+        self.ps = point_settings
+        self.s = settings
+        self.designs = Designs(point_settings)
+        self.tracks: list[Track] = []
+        self.next_id = 1
+        self.births = 0
+        self.drops = 0
+
+    # ------------------------------------------------------------ per pair
+    def step(self, left: np.ndarray, right: np.ndarray, t_ns: int, skipped: int = 0,
+             boxes: list[np.ndarray] | None = None) -> list[Track]:
+        """Advance every track into this pair; associate and give birth when `boxes` (rectified
+        [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
+        for track in self.tracks:
+            track.point.step(left, right, self.rect, skipped)
+            if track.point.accepted:
+                track.last_measured_ns = t_ns
+        if boxes is not None:
+            self._associate(left, right, t_ns, boxes)
+        for track in self.tracks:
+            self._lifecycle(track, t_ns)
+        self.tracks = [t for t in self.tracks if t.alive]
+        return self.tracks
+
+    def _associate(self, left: np.ndarray, right: np.ndarray, t_ns: int, boxes: list[np.ndarray]) -> None:
+        tracks = self.tracks
+        confirmed = [False] * len(tracks)
+        taken = [False] * len(boxes)
+        if tracks and boxes:
+            cost = np.ones((len(tracks), len(boxes)))
+            for i, track in enumerate(tracks):
+                tb = track.box
+                for j, db in enumerate(boxes):
+                    iou = _iou(tb, db)
+                    if iou >= MIN_IOU or _contains(db, track.point.u, track.point.v):
+                        cost[i, j] = 1.0 - iou
+            rows, cols = linear_sum_assignment(cost)
+            for i, j in zip(rows, cols, strict=True):
+                if cost[i, j] < 1.0 or _contains(boxes[j], tracks[i].point.u, tracks[i].point.v):
+                    taken[j] = True
+                    confirmed[i] = self._confirm(tracks[i], boxes[j], left, t_ns)
+        for track, ok in zip(tracks, confirmed, strict=True):
+            track.confirmations.append(ok)
+        for j, db in enumerate(boxes):
+            if taken[j] or any(_iou(t.box, db) > 0.0 or _contains(db, t.point.u, t.point.v) for t in tracks):
+                continue
+            if len(self.tracks) < self.s.max_tracks:
+                self._birth(left, right, t_ns, db)
+
+    def _confirm(self, track: Track, box: np.ndarray, left: np.ndarray, t_ns: int) -> bool:
+        p = track.point
+        if not _contains(box, p.u, p.v):  # the point drifted off the ship: pick a new one on it
+            u, v = self._reference(left, box)
+            p.reanchor(u, v)
+        track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
+        d = p.disparity if p.disparity is not None else p.raw_disparity
+        if d is not None and not self._on_the_sea(d, box):
+            return False
+        track.last_confirmed_ns = t_ns
+        return True
+
+    def _birth(self, left: np.ndarray, right: np.ndarray, t_ns: int, box: np.ndarray) -> None:
+        u, v = self._reference(left, box)
+        point = TrackPoint(u, v, self.ps, self.designs)
+        if not point.step(left, right, self.rect):
+            return
+        m = point.match
+        if m is not None and m.valid and not self._on_the_sea(m.disparity_px, box):
+            return
+        self.tracks.append(Track(self.next_id, t_ns, point, np.asarray(box, float), self.s.confirm_m))
+        self.next_id += 1
+        self.births += 1
+
+    def _reference(self, left: np.ndarray, box: np.ndarray) -> tuple[float, float]:
+        h = self.ps.window // 2
+        x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
+        x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
+        ox, oy = x0 - h - 1, y0 - h - 1
+        patch = self.rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
+        return reference_point(patch, (x0, y0, x1, y1), (ox, oy), self.ps.window)
+
+    def _on_the_sea(self, disparity_px: float, box: np.ndarray) -> bool:
+        """Is the measured disparity possible for a ship whose waterline is the box's bottom row?
+
+        No nearer than the sea at the bottom row (plus slack), and no farther than that sea
+        range plus a ship length (the measured point may be on the far end of a bow-on ship)."""
+        fb = self.rect.f_px * self.rect.rig.baseline_m
+        u = 0.5 * (box[0] + box[2])
+        tol = self.s.waterline_tol_px
+        near = self._sea_range(u, box[3] + tol)
+        far = self._sea_range(u, box[3] - tol) + self.s.max_ship_length_m
+        d_max = fb / near if math.isfinite(near) else 0.0
+        d_min = fb / far if math.isfinite(far) else 0.0
+        slack = 3.0 * max(self.ps.max_sigma_px, 0.1)
+        return d_min - slack <= disparity_px <= 1.1 * d_max + slack
+
+    def _sea_range(self, u: float, v: float) -> float:
+        return sea_range_at(self.rect, self.site_height_m, u, v)
+
+    # ------------------------------------------------------------ lifecycle
+    def _lifecycle(self, track: Track, t_ns: int) -> None:
+        s = self.s
+        if track.status is TrackStatus.ACQUIRING:
+            hits = sum(track.confirmations)
+            misses = len(track.confirmations) - hits
+            if misses > s.confirm_m - s.confirm_n or t_ns - track.last_measured_ns > s.coast_s * 1e9:
+                self._drop(track)
+            elif hits >= s.confirm_n and track.point.disparity is not None:
+                track.status = TrackStatus.TRACKING
+            return
+        stale = (t_ns - track.last_measured_ns > s.coast_s * 1e9
+                 or t_ns - track.last_confirmed_ns > s.unconfirmed_s * 1e9)
+        if track.status is TrackStatus.TRACKING and stale:
+            track.status, track.lost_since_ns = TrackStatus.LOST, t_ns
+        elif track.status is TrackStatus.LOST:
+            if not stale and track.point.disparity is not None:
+                track.status, track.lost_since_ns = TrackStatus.TRACKING, None
+            elif track.lost_since_ns is not None and t_ns - track.lost_since_ns > s.drop_s * 1e9:
+                self._drop(track)
+
+    def _drop(self, track: Track) -> None:
+        track.alive = False
+        self.drops += 1
