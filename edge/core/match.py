@@ -17,6 +17,10 @@ the best cost, and a cost curve that brackets the minimum (den > 0). Failures co
 `valid=False` with a reason, never as an exception; only programming errors (an unknown cost or
 method name) raise ValueError.
 
+Real camera pairs: pass both images through `edge.core.prefilter.xsobel` once per frame
+first; on the Middlebury pair that is what makes this matcher beat OpenCV StereoBM, while on
+clean renders it costs accuracy (tools/bench-core, "real" and "subpixel" sections).
+
 `impl` picks the arithmetic: "int" (default, exact integers with the fast cross-correlation),
 "int-ref" (the plain int64 definition: bit-identical, slower) or "float" (float64 reference
 with mean-subtracted windows and float fits). `match_point_float` is impl="float".
