@@ -8,7 +8,8 @@ DSP/FPGA port has a single page to read (DESIGN.md, "Fixed-point rules"):
   1 LSB of the float reference;
 - Butterworth biquad coefficients: Q14, state in Q(8 + 14) = Q22 pixels ("wide state", so a
   low cutoff never leaves a dead band);
-- alpha-beta (steady-state Kalman) gains and state: Q24.
+- alpha-beta (steady-state Kalman) gains and state: Q24; its gate compares squared Q8
+  residuals with Q16 px^2 thresholds.
 
 The helpers take and return Python ints (arbitrary precision, so the *code* cannot overflow);
 the widths a port needs are stated beside each routine and checked by tests. Rounding is
@@ -32,6 +33,7 @@ BIQUAD_STATE_BITS = SUBPIX_BITS + BIQUAD_COEF_BITS   # Q22 px wide output state
 # --- alpha-beta / constant-velocity Kalman -------------------------------------------------
 AB_BITS = 24                         # Q24 gains and Q24 px state (int64 state)
 AB_ONE = 1 << AB_BITS
+VAR_BITS = 16                        # Q16 px^2 innovation variances / gate thresholds (r_q8^2 scale)
 
 INT32_MIN = -(1 << 31)
 INT32_MAX = (1 << 31) - 1

@@ -34,9 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from edge.core.fixedpoint import AB_BITS, SUBPIX_BITS, round_shift, to_q
+from edge.core.fixedpoint import AB_BITS, SUBPIX_BITS, VAR_BITS, round_shift, to_q
 
-VAR_BITS = 16          # variances and gate thresholds in Q16 px^2
 MAX_TABLE = 20000
 
 
