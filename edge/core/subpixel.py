@@ -15,9 +15,12 @@ e(f + 1/2) ~ -e(f), so averaging with an estimate made on half-pixel-shifted dat
 Integer form: each fit is one division num/den to Q10 (FIT_BITS), with num = c(-1) - c(+1),
 den = 2(c(-1) - 2c(0) + c(+1)) and |num| <= den/2 at an interior minimum; the average is
 formed in Q10 and rounded once to Q8. Worst-case difference from the float reference:
-2^-11 (fit) + 2^-9 (final rounding) < 1/256 px. Costs of 15x15 ZSSD on 9-bit sums reach
-2^34, so den needs 37 bits (int64); num << 10 needs 47 bits, or use
-`fixedpoint.restoring_divide` (bit-identical, never forms num << 10) on a 32-bit DSP/FPGA.
+2^-11 (fit) + 2^-9 (final rounding) < 1/256 px.
+
+Widths (15x15): SSD of 9-bit sums < 2^26; ZSSD (N sum D^2 - (sum D)^2) < 2^34. For ZSSD the
+passes first equalise contrast (left x 256, right x gain in Q8, gain clamped to [1/2, 2]), so
+|D| < 2^18 and costs < 2^52: int64 sums, den < 2^54, and num << 10 would need 64 bits, so a
+port uses `fixedpoint.restoring_divide` (bit-identical; its remainder stays below 2 den).
 """
 
 from __future__ import annotations

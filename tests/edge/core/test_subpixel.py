@@ -91,11 +91,18 @@ def test_contrast_equalisation_makes_costs_gain_invariant() -> None:
 
 
 def test_integer_widths_for_15x15_worst_case() -> None:
-    # 9-bit sums, 15x15: ZSSD <= N * N * 510^2, den = 2(cm - 2c0 + cp) <= 4 max; num << 10 in int64
+    # contrast-equalised 9-bit sums: |D| <= 510 * 512, ZSSD <= N * N * D^2, den <= 4 max (int64)
     n = 15 * 15
-    worst = n * n * 510**2
-    assert (4 * worst).bit_length() <= 37
-    assert ((2 * worst) << 10).bit_length() <= 47
+    worst = n * n * (510 * 512) ** 2
+    assert worst.bit_length() <= 52 and (4 * worst).bit_length() <= 54
+    rng = np.random.default_rng(0)              # and a worst-case window really stays in int64
+    left = np.where(rng.random((15, 40)) < 0.5, 0, 255).astype(np.uint8)
+    right = (left // 2).astype(np.uint8)        # half the contrast: gain clamps at 2
+    costs = sp.cancellation_costs(left, right, 20, 3, "zssd")
+    exact = sp.cancellation_costs(left, right, 20, 3, "zssd", as_float=True)
+    for c, f in zip(costs, exact, strict=True):
+        assert c.max() < 2**52
+        np.testing.assert_allclose(c / c.max(), f / f.max(), rtol=1e-6)
 
 
 def _stats(condition: Condition, subpixel: str, cost: str = "zssd") -> tuple[float, float]:
