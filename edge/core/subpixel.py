@@ -122,8 +122,8 @@ def _equalise_contrast(regs: np.ndarray, w: int, as_float: bool) -> np.ndarray:
     ZSSD removes an offset but not a gain: with R = g*L the fitted minimum of sum (L' - g R')^2
     moves with how sum R'^2 varies across candidates. Matching the contrast first (integer:
     left x 256, right x g in Q8) makes the half-pixel passes gain-invariant."""
-    centre = regs[:, :, 2:2 + w].reshape(2, -1)
-    energy = (w * w) * np.einsum("ij,ij->i", centre, centre) - centre.sum(axis=1) ** 2
+    centre = regs[:, :, 2:2 + w]
+    energy = (w * w) * np.einsum("ijk,ijk->i", centre, centre) - centre.sum(axis=(1, 2)) ** 2
     if as_float:
         if energy[0] <= 0 or energy[1] <= 0:
             return regs
@@ -134,9 +134,11 @@ def _equalise_contrast(regs: np.ndarray, w: int, as_float: bool) -> np.ndarray:
 
 
 @functools.cache
-def _shift_index(w: int) -> np.ndarray:
-    """Column indices of the five windows at shifts p = 0..4 of a w+4 wide region."""
-    return np.arange(5)[:, None] + np.arange(w)[None, :]
+def _candidate_index(w: int) -> np.ndarray:
+    """Columns of the nine candidate windows in [half sums | doubled samples] (each w+4 wide):
+    half-sum windows at shifts p = 0..4, then doubled-sample windows at p = 1..4."""
+    cols = np.arange(5)[:, None] + np.arange(w)[None, :]
+    return np.concatenate((cols, cols[1:] + w + 4))
 
 
 def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int, cost: str,
@@ -156,11 +158,11 @@ def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d
     regs = regs.astype(np.float64 if as_float else np.int64)                # (2, w, w+5)
     if cost != "ssd":
         regs = _equalise_contrast(regs, w, as_float)
-    cols = _shift_index(w)                                                  # shifts p = 0..4
-    half = (regs[:, :, :-1] + regs[:, :, 1:])[:, :, cols]                   # (2, w, 5, w) Lh, Rh
-    dbl = 2 * regs[:, :, cols[1:]]                                          # (2, w, 4, w) 2L, 2R
-    cands = np.concatenate((half, dbl), axis=2)                             # p = 0..4, 1..4
-    diff = half[:, :, 2:3, :] - cands[::-1]            # [0]: Lh vs (Rh, 2R); [1]: Rh vs (Lh, 2L)
+    # half sums and doubled samples side by side; one gather takes all nine candidate windows
+    ext = np.concatenate((regs[:, :, :-1] + regs[:, :, 1:], 2 * regs[:, :, :-1]), axis=2)
+    cands = ext[:, :, _candidate_index(w)]                   # (2, w, 9, w): Xh p=0..4, 2X p=1..4
+    templates = ext[:, :, None, 2:2 + w]                      # Lh, Rh at p = 2
+    diff = templates - cands[::-1]                    # [0]: Lh vs (Rh, 2R); [1]: Rh vs (Lh, 2L)
     if as_float:
         if cost != "ssd":
             diff = diff - diff.mean(axis=(1, 3), keepdims=True)
