@@ -14,8 +14,10 @@ offset from the pair time, so skew and jitter survive) with sequence numbers
 counting triggers, as real cameras on a shared trigger would report. If the
 consumer or the generator falls behind by more than a frame, triggers are
 skipped to catch up (counted in `dropped`), the way a camera overwrites
-frames nobody collected. With `realtime=False` pairs pass through unchanged,
-as fast as they are asked for.
+frames nobody collected. With `realtime=False` pairs pass through as fast as
+they are asked for, unchanged except when looping: each lap's timestamps are
+shifted by the scene's length (n_triggers / fps) and sequence numbers count
+triggers, so time and sequence keep increasing.
 """
 
 from __future__ import annotations
@@ -44,8 +46,8 @@ class VirtualSource(FramePairSource):
         super().__init__()
         if realtime and not (fps and fps > 0.0):
             raise ValueError("a real-time virtual source needs a positive fps")
-        if loop and not (callable(pairs) and n_triggers):
-            raise ValueError("loop needs a make_pair callable and n_triggers")
+        if loop and not (callable(pairs) and n_triggers and fps and fps > 0.0):
+            raise ValueError("loop needs a make_pair callable, n_triggers and fps")
         self._make = pairs if callable(pairs) else None
         self._iter: Iterator[FramePair] | None = None if callable(pairs) else iter(pairs)
         self.fps, self.realtime, self.n_triggers, self.loop = fps, realtime, n_triggers, loop
@@ -81,7 +83,17 @@ class VirtualSource(FramePairSource):
                 self.dropped += 1
                 continue
             if not self.realtime:
-                return pair
+                if not self.loop or k < self.n_triggers:
+                    return pair
+                shift = (k // self.n_triggers) * round(self.n_triggers * 1e9 / self.fps)
+                return replace(
+                    pair,
+                    t_ns=pair.t_ns + shift,
+                    seq_left=k,
+                    seq_right=k,
+                    t_left_ns=pair.t_left_ns + shift,
+                    t_right_ns=pair.t_right_ns + shift,
+                )
             due = self._due_ns(k)
             now = self._clock()
             if due > now:

@@ -146,6 +146,11 @@ class Scenario:
     def n_frames(self) -> int:
         return max(1, round(self.spec.duration_s * self.spec.fps))
 
+    @property
+    def horizontal_fov_deg(self) -> float:
+        rig = self.calibration.rig
+        return math.degrees(2.0 * math.atan(rig.width / 2.0 / rig.focal_px()))
+
 
 def scenario_path(name_or_path: str | Path) -> Path:
     """config/scenarios/NAME.yaml for a bare name, else the path as given."""
@@ -208,8 +213,3 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     """Read and validate a scenario by name (config/scenarios) or path."""
     path = scenario_path(name_or_path)
     return scenario_from_dict(load_yaml(path), path)
-
-
-def horizontal_fov_deg(scenario: Scenario) -> float:
-    rig = scenario.calibration.rig
-    return math.degrees(2.0 * math.atan(rig.width / 2.0 / rig.focal_px()))

@@ -25,10 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.camera.base import FramePair
+from drivers.camera.virtual import VirtualSource
 from edge.sim.imaging import expose
 from edge.sim.rays import CameraRays, PosedShip
 from edge.sim.render import Glint, ViewRenderer
-from edge.sim.scenario import Scenario, build_ships
+from edge.sim.scenario import Scenario, build_ships, load_scenario
 from edge.sim.scene import World
 
 
@@ -186,3 +187,18 @@ class Simulation:
         return FramePair(
             left, right, trig.t_ns, trig.seq_left, trig.seq_right, trig.t_left_ns, trig.t_right_ns
         )
+
+
+def live_source(
+    scenario: Scenario | str, seed: int = 0, pace: bool = True, loop: bool = True
+) -> VirtualSource:
+    """The simulator as a live camera pair (config `cameras: {kind: virtual, ...}`).
+
+    `scenario` is a loaded Scenario, a name in config/scenarios or a YAML path. With `pace`, pairs come
+    at the scenario's frame rate stamped on CLOCK_MONOTONIC; with `loop`, the scenario starts over.
+    Frames are rendered on demand, so a slow consumer makes the source skip triggers (counted).
+    """
+    if not isinstance(scenario, Scenario):
+        scenario = load_scenario(scenario)
+    sim = Simulation(scenario, seed)
+    return VirtualSource(sim.pair, fps=scenario.spec.fps, realtime=pace, n_triggers=sim.n_frames, loop=loop)

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 KNOT_MPS = 1852.0 / 3600.0
+MAX_FILLET_RAD = math.radians(170.0)  # sharper reversals turn on the spot (give a hold to make it take time)
 
 
 @dataclass(frozen=True)
@@ -66,7 +67,8 @@ class Track:
         if holds.shape != (len(pts),) or np.any(holds < 0.0):
             raise ValueError("holds_s needs one non-negative time per waypoint")
         self.segments: list[_Segment] = []
-        self._build(pts, legs / lengths[:, None], lengths, speeds, holds, max(turn_radius_m, 0.0), start_s)
+        radius = turn_radius_m if turn_radius_m >= 0.01 else 0.0  # below a centimetre: sharp corners
+        self._build(pts, legs / lengths[:, None], lengths, speeds, holds, radius, start_s)
 
     def _build(self, pts, dirs, lengths, speeds, holds, radius, t) -> None:
         n_legs = len(dirs)
@@ -76,7 +78,7 @@ class Track:
         for i in range(1, n_legs):
             cross = dirs[i - 1, 0] * dirs[i, 1] - dirs[i - 1, 1] * dirs[i, 0]
             turns[i] = -math.atan2(cross, float(dirs[i - 1] @ dirs[i]))  # heading change at waypoint i
-            if holds[i] == 0.0 and radius > 0.0 and abs(turns[i]) > 1e-9:
+            if holds[i] == 0.0 and radius > 0.0 and 1e-9 < abs(turns[i]) < MAX_FILLET_RAD:
                 cut[i - 1, 1] = cut[i, 0] = radius * math.tan(abs(turns[i]) / 2.0)
         scale = np.minimum(1.0, 0.5 * lengths / np.maximum(cut.max(axis=1), 1e-12))  # legs too short
         for i in range(1, n_legs):

@@ -88,6 +88,14 @@ def test_loop_restarts_the_scene_with_increasing_time() -> None:
     ]
 
 
+def test_unpaced_loop_keeps_time_and_sequence_increasing() -> None:
+    source = VirtualSource(make_pair, fps=10.0, n_triggers=3, loop=True)
+    got = [source.read() for _ in range(6)]
+    assert [int(p.left[0, 0]) for p in got] == [0, 1, 2, 0, 1, 2]
+    assert np.all(np.diff([p.t_ns for p in got]) == PERIOD_NS)
+    assert [p.seq_left for p in got] == list(range(6))
+
+
 def test_bad_arguments() -> None:
     with pytest.raises(ValueError):
         VirtualSource(make_pair, realtime=True)
