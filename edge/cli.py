@@ -17,6 +17,7 @@ from edge.errors import EX_CONFIG, ConfigError
 
 # subcommand -> (module, one-line help). Order is the order of `--help`.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "run": ("edge.commands.run", "the appliance daemon (what systemd starts)"),
     "budget": ("edge.commands.budget", "error budget of a rig (eq. 4.5, 4.6, 3.12)"),
     "calibrate": ("edge.commands.calibrate", "fit camera models from surveyed landmarks"),
     "check-config": ("edge.commands.check_config", "load a configuration/calibration and print a summary"),

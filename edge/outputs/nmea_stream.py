@@ -1,0 +1,46 @@
+"""NMEA sentences to a text stream (the demo's stdout), with the serial output's scheduling rules.
+
+Same `NmeaScheduler` as a serial port (target numbers, L three times,
+refresh once per `min_refresh_s`) but no byte budget: a terminal is not a
+4800-baud line. A stream that fails (closed pipe) is counted and reported as
+a fault; it never raises into the processing thread.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+from typing import TextIO
+
+from edge.fix import ShipFix
+from edge.outputs.nmea_out import DEFAULT_SCHEDULE, NmeaSchedule, NmeaScheduler
+
+
+class NmeaStreamOutput:
+    """Writes each scheduled group to `stream` and flushes; `publish`/`health`/`close` like the others."""
+
+    def __init__(self, stream: TextIO, schedule: NmeaSchedule = DEFAULT_SCHEDULE,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.stream = stream
+        self.scheduler = NmeaScheduler(schedule, None, clock)
+        self.lines = 0
+        self.errors = 0
+
+    def publish(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
+        groups = self.scheduler.step(fixes)
+        if not groups:
+            return groups
+        try:
+            for group in groups:
+                self.stream.write("".join(line.rstrip("\r\n") + "\n" for line in group))
+                self.lines += len(group)
+            self.stream.flush()
+        except (OSError, ValueError):  # closed or broken stream
+            self.errors += 1
+        return groups
+
+    def health(self) -> tuple[str | None, dict[str, int]]:
+        return ("NMEA stream failing" if self.errors else None), {"stream_lines": self.lines}
+
+    def close(self) -> None:
+        pass
