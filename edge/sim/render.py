@@ -33,7 +33,7 @@ from scipy.special import erf
 from edge.sim.background import Background
 from edge.sim.rays import EDGE_SAMPLES, CameraRays, PosedShip, cast, sphere_coverage
 from edge.sim.scene import World, transmission
-from edge.sim.ships import paint
+from edge.sim.ships import hash01, paint
 
 SIMPSON = np.outer([1.0, 4.0, 1.0], [1.0, 4.0, 1.0]).ravel() / 36.0
 FINE_PX = 1.5  # paint or parts smaller than this (in pixels) are always integrated finely
@@ -71,7 +71,7 @@ class ViewRenderer:
         """Float32 radiance image (DN at unit exposure) at time t_s."""
         image = self.background.at(t_s)
         for group, box in self._clusters(ships):
-            self._render_box(image, group, box)
+            self._render_box(image, group, box, t_s)
         if marker_m > 0.0:
             for ship in ships:
                 self._marker(image, ship.to_world(ship.model.tracked_local), marker_m, marker_dn)
@@ -107,7 +107,9 @@ class ViewRenderer:
                     break
         return groups
 
-    def _render_box(self, image: np.ndarray, ships: list[PosedShip], box: tuple[int, int, int, int]) -> None:
+    def _render_box(
+        self, image: np.ndarray, ships: list[PosedShip], box: tuple[int, int, int, int], t_s: float
+    ) -> None:
         r0, r1, c0, c1 = box
         h, w = r1 - r0, c1 - c0
         gv = r0 - 0.5 + np.arange(2 * h + 1) / 2.0
@@ -141,50 +143,89 @@ class ViewRenderer:
         out = image[r0:r1, c0:c1]
         out[smooth] = blocks(grid.radiance)[smooth] @ SIMPSON
         if paint_edge.any():
-            centre = np.flatnonzero(paint_edge.reshape(-1))
-            centre = (2 * (centre // w) + 1) * shape[1] + 2 * (centre % w) + 1  # grid index of pixel centres
-            out[paint_edge] = self._paint_fine(blocks(grid.local)[paint_edge], centre, grid, ships, footprint)
+            prow, pcol = np.nonzero(paint_edge)
+            centre = (2 * prow + 1) * shape[1] + 2 * pcol + 1  # grid index of the pixel centres
+            offsets = self._rotated_samples(prow + r0, pcol + c0, t_s)
+            out[paint_edge] = self._paint_fine(
+                blocks(grid.local)[paint_edge], centre, offsets, grid, ships, footprint
+            )
         rows, cols = np.nonzero(edge)
         if rows.size:
             waves = out[rows, cols] - self.background.static[rows + r0, cols + c0]  # this frame's sea term
-            u = (cols + c0)[:, None] + EDGE_SAMPLES[None, :, 0]
-            v = (rows + r0)[:, None] + EDGE_SAMPLES[None, :, 1]
-            fine = self._sample(self.rays.dirs(u.ravel(), v.ravel()), ships, footprint)
+            offsets = self._rotated_samples(rows + r0, cols + c0, t_s)
+            u = (cols + c0)[:, None] + offsets[..., 0]
+            v = (rows + r0)[:, None] + offsets[..., 1]
+            fine = self._sample(self.rays.dirs(u.ravel(), v.ravel()), ships, footprint, cell_px=0.125)
             rad = fine.radiance.reshape(len(rows), -1)
             sea = (fine.label == 1).reshape(len(rows), -1)
             out[rows, cols] = (rad + sea * waves[:, None]).mean(axis=1)
 
+    def _rotated_samples(self, rows: np.ndarray, cols: np.ndarray, t_s: float) -> np.ndarray:
+        """EDGE_SAMPLES shifted toroidally by a per-pixel, per-frame, per-camera pseudo-random offset.
+
+        A fixed pattern resolves a straight edge to 1/64 px with the *same* error on every row of that
+        edge and every frame at that phase (a coherent bias of up to 1/128 px, visible as a staircase
+        of ~0.02 px in a moving ship's centroid). The Cranley-Patterson rotation keeps the pattern
+        stratified but makes each pixel's error independent and zero-mean, so it averages out along
+        the edge and over time. The offset is a hash of (row, column, time, camera): reproducible.
+        """
+        keys = (rows, cols, round(t_s * 1e6), round(self.rays.origin[0] * 1000.0))
+        shift = np.stack([hash01(*keys, 0), hash01(*keys, 1)], axis=-1)
+        return (EDGE_SAMPLES[None, :, :] + 0.5 + shift[:, None, :]) % 1.0 - 0.5
+
     def _paint_fine(
-        self, local9: np.ndarray, centre: np.ndarray, grid: Samples, ships, footprint
+        self,
+        local9: np.ndarray,
+        centre: np.ndarray,
+        offsets: np.ndarray,
+        grid: Samples,
+        ships: list[PosedShip],
+        footprint: dict[int, float],
     ) -> np.ndarray:
-        """Mean paint over 64 sub-samples of pixels that lie on one face (surface coords interpolated)."""
-        su, sv = 2.0 * (EDGE_SAMPLES[:, 0] + 0.5), 2.0 * (EDGE_SAMPLES[:, 1] + 0.5)  # 0..2 in grid steps
+        """Mean paint over 64 sub-samples of pixels that lie on one face (surface coords interpolated).
+
+        `local9` (n, 9, 3): surface coordinates at the pixel's 3x3 grid (offsets -0.5, 0, 0.5 px);
+        `offsets` (n, 64, 2): the sub-sample positions in the pixel. Each sub-sample stands for a
+        1/8 x 1/8 px cell, whose extent on the surface box-filters the windows (see ships.paint).
+        """
+        su, sv = 2.0 * (offsets[..., 0] + 0.5), 2.0 * (offsets[..., 1] + 0.5)  # 0..2 in grid steps
         iu, iv = np.minimum(su.astype(int), 1), np.minimum(sv.astype(int), 1)
-        fu, fv = (su - iu)[None, :, None], (sv - iv)[None, :, None]
+        fu, fv = (su - iu)[..., None], (sv - iv)[..., None]
         k = iv * 3 + iu
+        rows = np.arange(len(local9))[:, None]
         pts = (
-            local9[:, k] * (1 - fu) * (1 - fv)
-            + local9[:, k + 1] * fu * (1 - fv)
-            + local9[:, k + 3] * (1 - fu) * fv
-            + local9[:, k + 4] * fu * fv
+            local9[rows, k] * (1 - fu) * (1 - fv)
+            + local9[rows, k + 1] * fu * (1 - fv)
+            + local9[rows, k + 3] * (1 - fu) * fv
+            + local9[rows, k + 4] * fu * fv
         )
+        # surface extent of a 1/8 px cell from the pixel's Jacobian (the grid spans 1 px across)
+        extent = (np.abs(local9[:, 5] - local9[:, 3]) + np.abs(local9[:, 7] - local9[:, 1])) / 8.0
+        extent = np.repeat(extent[:, None, :], pts.shape[1], axis=1)
         albedo = np.empty(pts.shape[:2])
         by_index = {s.index: s for s in ships}
         keys = grid.ship[centre] * 1000 + grid.part[centre]
         for key in np.unique(keys):
             sel = keys == key
             ship, part = by_index[int(key // 1000)], int(key % 1000)
-            albedo[sel] = paint(ship.model, part, pts[sel].reshape(-1, 3), footprint[ship.index])[0].reshape(
-                -1, pts.shape[1]
+            value, _ = paint(
+                ship.model, part, pts[sel].reshape(-1, 3), footprint[ship.index], extent[sel].reshape(-1, 3)
             )
+            albedo[sel] = value.reshape(-1, pts.shape[1])
         trans = grid.trans[centre]
         return (
             trans * grid.factor[centre] * albedo.mean(axis=1)
             + (1.0 - trans) * self.world.atmosphere.airlight_dn
         )
 
-    def _sample(self, dirs: np.ndarray, ships: list[PosedShip], footprint: dict[int, float]) -> Samples:
-        """Label, paint region and radiance of individual rays: the nearest of ship, sea and sky."""
+    def _sample(
+        self, dirs: np.ndarray, ships: list[PosedShip], footprint: dict[int, float], cell_px: float = 0.0
+    ) -> Samples:
+        """Label, paint region and radiance of individual rays: the nearest of ship, sea and sky.
+
+        `cell_px` > 0: each ray stands for a cell that wide, whose surface extent (taken isotropic,
+        `cell_px` pixel footprints) box-filters the paint; 0 samples the paint at points.
+        """
         origin, world = self.rays.origin, self.world
         hits = cast(origin, dirs, ships)
         t_sea = world.sea_hit(origin, dirs)
@@ -220,8 +261,9 @@ class ViewRenderer:
             )
             for part in np.unique(hits.part[on]):
                 sel = on[hits.part[on] == part]
+                extent = None if cell_px == 0.0 else np.full((len(sel), 3), cell_px * footprint[ship.index])
                 albedo[sel], out.region[sel] = paint(
-                    ship.model, int(part), hits.local[sel], footprint[ship.index]
+                    ship.model, int(part), hits.local[sel], footprint[ship.index], extent
                 )
         t = out.trans[idx]
         out.radiance[idx] = t * albedo[idx] * out.factor[idx] + (1.0 - t) * world.atmosphere.airlight_dn

@@ -259,7 +259,7 @@ def _boat(length: float, seed: int) -> ShipModel:
 _PRESETS = {"freighter": _freighter, "ferry": _ferry, "coaster": _coaster, "tug": _tug, "boat": _boat}
 
 
-def _hash01(*ints: np.ndarray | int) -> np.ndarray:
+def hash01(*ints: np.ndarray | int) -> np.ndarray:
     """Deterministic uniform [0, 1) from integer cell indices (splitmix64-style mixing, wrapping)."""
     shape = np.broadcast(*[np.asarray(v) for v in ints]).shape
     h = np.zeros(shape, dtype=np.uint64)
@@ -283,28 +283,61 @@ def _noise_field(seed: int, part_index: int) -> tuple[np.ndarray, np.ndarray, np
     return direction * (2.0 * np.pi / wavelength)[:, None], rng.uniform(0, 2 * np.pi, 3), wavelength
 
 
+def _below(x: np.ndarray, edge: float, width: np.ndarray | None) -> np.ndarray:
+    """Fraction of the interval [x - w/2, x + w/2] below `edge` (a point test when width is None)."""
+    if width is None:
+        return (x < edge).astype(np.float64)
+    return np.clip((edge - x) / np.maximum(width, 1e-9) + 0.5, 0.0, 1.0)
+
+
+def _in_windows(x: np.ndarray, period: float, frac: float, width: np.ndarray | None) -> np.ndarray:
+    """Fraction of [x - w/2, x + w/2] inside the window band centred in every cell of `period`.
+
+    Exact: the difference of the antiderivative F of the periodic indicator at the interval ends.
+    """
+    lo_edge, size = (0.5 - frac / 2.0) * period, frac * period
+
+    def antiderivative(y: np.ndarray) -> np.ndarray:
+        k = np.floor(y / period)
+        return k * size + np.clip(y - k * period - lo_edge, 0.0, size)
+
+    if width is None:
+        return (np.abs(x / period - np.floor(x / period) - 0.5) < frac / 2.0).astype(np.float64)
+    w = np.maximum(width, 1e-9)
+    return (antiderivative(x + w / 2.0) - antiderivative(x - w / 2.0)) / w
+
+
 def paint(
-    model: ShipModel, part_index: int, p: np.ndarray, footprint_m: float
+    model: ShipModel, part_index: int, p: np.ndarray, footprint_m: float, extent: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Albedo and region id at local points p (N, 3) on one part, for a pixel footprint in metres."""
+    """Albedo and paint-region id at local points p (N, 3) on one part.
+
+    `footprint_m` (one pixel, metres) prefilters the smooth noise. `extent` (N, 3), the size along
+    (a, b, h) of the small cell each point stands for, box-filters windows and the band exactly
+    (separable closed forms), so sub-pixel windows need few samples; None samples points.
+    Region ids are always point tests (they only locate boundaries).
+    """
     style = model.parts[part_index].style
     a, b, h = p[:, 0], p[:, 1], p[:, 2]
+    ext_a, ext_h = (None, None) if extent is None else (extent[:, 0], extent[:, 2])
     cell = [
         np.floor(q / s) if math.isfinite(s) else np.zeros_like(q)
         for q, s in zip((a, h, b), style.cell_m, strict=True)
     ]
-    spread = 2.0 * _hash01(model.seed, part_index, *cell) - 1.0
+    spread = 2.0 * hash01(model.seed, part_index, *cell) - 1.0
     albedo = style.albedo * (1.0 + style.cell_variation * spread)
     region = cell[0] * 7919.0 + cell[1] * 104729.0 + cell[2] * 1299709.0
     if style.window[0] > 0.0:
-        fa = a / style.cell_m[0] - cell[0]
-        fh = h / style.cell_m[1] - cell[1]
-        inside = (np.abs(fa - 0.5) < style.window[0] / 2) & (np.abs(fh - 0.5) < style.window[1] / 2)
-        albedo = np.where(inside, style.window_albedo, albedo)
+        cover = _in_windows(a, style.cell_m[0], style.window[0], ext_a)
+        cover *= _in_windows(h, style.cell_m[1], style.window[1], ext_h)
+        albedo = cover * style.window_albedo + (1.0 - cover) * albedo
+        inside = _in_windows(a, style.cell_m[0], style.window[0], None) * _in_windows(
+            h, style.cell_m[1], style.window[1], None
+        )
         region = region * 2.0 + inside
-    band = h < style.band_top_m
-    albedo = np.where(band, style.band_albedo, albedo)
-    region = np.where(band, -1.0, region)
+    band = _below(h, style.band_top_m, ext_h)
+    albedo = band * style.band_albedo + (1.0 - band) * albedo
+    region = np.where(h < style.band_top_m, -1.0, region)
     k, phase, wavelength = _noise_field(model.seed, part_index)
     sigma2 = footprint_m**2 / 12.0  # variance of a box of the footprint's width
     amp = style.noise * np.exp(-2.0 * np.pi**2 * sigma2 / wavelength**2)
