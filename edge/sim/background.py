@@ -43,8 +43,7 @@ class Background:
         corner_dirs = np.concatenate([rays.lut, np.ones((h + 1, w + 1, 1))], axis=-1)
         t_corner = world.sea_hit(origin, corner_dirs)
         sea_corner = np.isfinite(t_corner)
-        rad_corner, scale_corner, hit_corner = self._radiance(corner_dirs, t_corner)
-        del scale_corner
+        rad_corner, _, hit_corner = self._radiance(corner_dirs, t_corner)
         lut = rays.lut  # pixel centres: the mean of the four corners (the exact bilinear value)
         centre_xy = 0.25 * (lut[:-1, :-1] + lut[:-1, 1:] + lut[1:, :-1] + lut[1:, 1:])
         centre_dirs = np.concatenate([centre_xy, np.ones((h, w, 1))], axis=-1)

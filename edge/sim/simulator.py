@@ -62,8 +62,7 @@ class Simulation:
         self.scenario, self.seed = scenario, int(seed)
         self.marker_m, self.marker_dn = marker_m, marker_dn
         spec = scenario.spec
-        rig = scenario.calibration.rig
-        self.rig = rig
+        self.rig = scenario.calibration.rig  # the rig the recording states (the right camera may differ)
         self.world = World(scenario.site.height_m, spec.atmosphere, spec.sky, spec.sea, spec.sun)
         self.ships = build_ships(spec, scenario.path)
         self.triggers = self._schedule()
