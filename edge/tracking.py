@@ -3,8 +3,9 @@
 Every pair, each live track follows its reference point and measures its
 disparity (`edge.trackpoint`). On detection pairs (every k-th), detections
 are associated to tracks by the Hungarian method
-(`scipy.optimize.linear_sum_assignment`) on 1 - IoU of the detection's box
-and the track's box carried along with its point, gated at a minimum overlap
+(`scipy.optimize.linear_sum_assignment`) on 1 - overlap of the detection's
+box and the track's box carried along with its point (`_overlap`: the IoU of
+their column spans, for boxes in the same rows), gated at a minimum overlap
 (or the point inside the box). Then:
 
 - an associated detection *confirms* its track; when the ship's measured
@@ -34,9 +35,10 @@ from scipy.optimize import linear_sum_assignment
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
 from edge.fix import TrackStatus
-from edge.trackpoint import Designs, PointSettings, TrackPoint, reference_point
+from edge.trackpoint import Designs, PointSettings, TrackPoint, reference_points
 
-MIN_IOU = 0.1  # association gate (or the track's point inside the detection's box)
+MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
+SEARCH_CANDIDATES = 6  # points offered to a track that lost its point on the ship
 
 
 @dataclass(frozen=True)
@@ -74,12 +76,14 @@ class Track:
         return (t_ns - self.born_ns) / 1e9
 
 
-def _iou(a: np.ndarray, b: np.ndarray) -> float:
-    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
-    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
-    inter = ix * iy
-    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
-    return inter / union if union > 0 else 0.0
+def _overlap(a: np.ndarray, b: np.ndarray) -> float:
+    """How much two ship boxes coincide: the IoU of their column spans, 0 unless their rows are
+    within one box height of each other. Ships move across the image, rarely up or down it, and a
+    box's height jumps with what the detector saw of the hull; its columns are what is stable."""
+    inter = min(a[2], b[2]) - max(a[0], b[0])
+    if inter <= 0 or abs((a[1] + a[3]) - (b[1] + b[3])) > (a[3] - a[1]) + (b[3] - b[1]) + 4.0:
+        return 0.0
+    return inter / (max(a[2], b[2]) - min(a[0], b[0]))
 
 
 def _contains(box: np.ndarray, u: float, v: float) -> bool:
@@ -107,13 +111,20 @@ class TrackTable:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
         for track in self.tracks:
-            track.point.step(left, right, self.rect, skipped)
+            candidates = lambda t=track: self._candidates(left, t.box)  # noqa: E731 (bound per track)
+            alive = track.point.step(left, right, self.rect, skipped, candidates)
             if track.point.accepted:
                 track.last_measured_ns = t_ns
+            if not alive:  # the point is gone for good: a tentative track ends, a confirmed one is lost
+                if track.status is TrackStatus.ACQUIRING:
+                    self._drop(track)
+                elif track.status is TrackStatus.TRACKING:
+                    track.status, track.lost_since_ns = TrackStatus.LOST, t_ns
         if boxes is not None:
             self._associate(left, right, t_ns, boxes)
         for track in self.tracks:
-            self._lifecycle(track, t_ns)
+            if track.alive:
+                self._lifecycle(track, t_ns)
         self.tracks = [t for t in self.tracks if t.alive]
         return self.tracks
 
@@ -126,27 +137,33 @@ class TrackTable:
             for i, track in enumerate(tracks):
                 tb = track.box
                 for j, db in enumerate(boxes):
-                    iou = _iou(tb, db)
-                    if iou >= MIN_IOU or _contains(db, track.point.u, track.point.v):
-                        cost[i, j] = 1.0 - iou
+                    overlap = _overlap(tb, db)
+                    if overlap >= MIN_OVERLAP or _contains(db, track.point.u, track.point.v):
+                        cost[i, j] = 1.0 - overlap
             rows, cols = linear_sum_assignment(cost)
             for i, j in zip(rows, cols, strict=True):
                 if cost[i, j] < 1.0 or _contains(boxes[j], tracks[i].point.u, tracks[i].point.v):
                     taken[j] = True
                     confirmed[i] = self._confirm(tracks[i], boxes[j], left, t_ns)
-        for track, ok in zip(tracks, confirmed, strict=True):
-            track.confirmations.append(ok)
+        for i, track in enumerate(tracks):
+            # ships in line merge into one blob: it confirms every track whose point it covers
+            if not confirmed[i] and any(_contains(db, track.point.u, track.point.v) for db in boxes):
+                confirmed[i] = True
+                track.last_confirmed_ns = t_ns
+            track.confirmations.append(confirmed[i])
         for j, db in enumerate(boxes):
-            if taken[j] or any(_iou(t.box, db) > 0.0 or _contains(db, t.point.u, t.point.v) for t in tracks):
+            if taken[j] or any(_overlap(t.box, db) > 0 or _contains(db, t.point.u, t.point.v)
+                               for t in tracks):
                 continue
             if len(self.tracks) < self.s.max_tracks:
                 self._birth(left, right, t_ns, db)
 
     def _confirm(self, track: Track, box: np.ndarray, left: np.ndarray, t_ns: int) -> bool:
         p = track.point
-        if not _contains(box, p.u, p.v):  # the point drifted off the ship: pick a new one on it
-            u, v = self._reference(left, box)
-            p.reanchor(u, v)
+        if not _contains(box, p.u, p.v) and p.prediction() is None:
+            # a point that never measured anything and is off the ship: start over on the ship (one
+            # with a range history stays: a searching point gets candidates from this box next pair)
+            p.reanchor(*self._reference(left, box))
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
         d = p.disparity if p.disparity is not None else p.raw_disparity
         if d is not None and not self._on_the_sea(d, box):
@@ -167,12 +184,16 @@ class TrackTable:
         self.births += 1
 
     def _reference(self, left: np.ndarray, box: np.ndarray) -> tuple[float, float]:
+        return self._candidates(left, box, 1)[0]
+
+    def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES) -> list:
+        """The best-textured points in the upper part of a (rectified) ship box, best first."""
         h = self.ps.window // 2
         x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
         x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
         ox, oy = x0 - h - 1, y0 - h - 1
         patch = self.rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
-        return reference_point(patch, (x0, y0, x1, y1), (ox, oy), self.ps.window)
+        return reference_points(patch, (x0, y0, x1, y1), (ox, oy), self.ps.window, count)
 
     def _on_the_sea(self, disparity_px: float, box: np.ndarray) -> bool:
         """Is the measured disparity possible for a ship whose waterline is the box's bottom row?
@@ -208,7 +229,7 @@ class TrackTable:
         if track.status is TrackStatus.TRACKING and stale:
             track.status, track.lost_since_ns = TrackStatus.LOST, t_ns
         elif track.status is TrackStatus.LOST:
-            if not stale and track.point.disparity is not None:
+            if not stale and track.point.disparity is not None and track.confirmations[-1]:
                 track.status, track.lost_since_ns = TrackStatus.TRACKING, None
             elif track.lost_since_ns is not None and t_ns - track.lost_since_ns > s.drop_s * 1e9:
                 self._drop(track)

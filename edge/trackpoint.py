@@ -15,14 +15,16 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
   once it runs (a full search at birth and after a restart).
 - Filter: the core's fixed-point CV Kalman with its 3-sigma gate (default),
   the thesis's Butterworth (eq. 6.1), or none (the raw whole-pixel / sub-pixel
-  stages that tools/evaluate compares). A second Kalman smooths the left
-  point's column for the bearing rate.
+  stages that tools/evaluate compares). The left point's column is smoothed by
+  a least-squares line over the last second of follows: its slope is the
+  image motion that predicts the next position and gives the bearing rate.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -36,10 +38,18 @@ from edge.core.rectify import Rectifier
 SUBPIXELS = ("cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
 UPPER_SHARE = 0.6  # the reference point is searched in this top share of the ship's box
-U_SIGMA_PX = 0.05  # left-follow noise for the image-motion filter
-U_ACCEL_PXPS2 = 2.0  # image acceleration of a turning or approaching ship
+COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
 NOISE_LADDER_PX = (0.04, 0.08, 0.16, 0.32, 0.64)  # disparity-noise levels of the Kalman designs
 NOISE_WINDOW = 20  # recent raw disparities kept for the track's own noise estimate
+REJECTS_TO_SEARCH = 5  # valid matches in a row that the filter's gate refuses: the point is on something else
+OCCLUSION_COST_FACTOR = 4.0  # a follow this much worse than the track's typical one: something in front
+OCCLUSION_COST_FLOOR = 20.0  # DN^2 per pixel, so a near-perfect typical match does not trip on noise
+MIXED_COST_FACTOR = 3.0  # a right match this much worse than the track's typical one is mixed
+MIXED_COST_FLOOR_DN2 = 10.0  # plus this residual variance (DN^2), so noise alone never trips it
+TEMPLATE_REFRESH_S = 1.0  # the followed template is re-taken this often (or when it matches 2x worse)
+MAX_SHIP_SPEED_MPS = 25.0  # ~50 kn: no ship's range changes faster
+MEMORY_S = 10.0  # a restarting filter must agree with the last estimate carried this far forward
+FOLLOW_GATE_PX = 1.5  # a follow this far from the predicted motion jumped to something else
 
 
 @dataclass(frozen=True)
@@ -61,6 +71,7 @@ class PointSettings:
     sigma_accel_pxps2: float = 0.05  # the Kalman's white acceleration (max d'' of a ship)
     search_radius_px: int = 4  # disparity search around the prediction
     follow_radius_px: int = 4  # left-follow search around the predicted position
+    fb_px_m: float = 0.0  # focal length x baseline: bounds the disparity rate (0: no bound)
 
 
 class Designs:
@@ -74,8 +85,6 @@ class Designs:
     def __init__(self, s: PointSettings) -> None:
         self.s = s
         self._disparity: dict[float, KalmanDesign] = {}
-        self.column: KalmanDesign = design_kalman(s.fps, U_SIGMA_PX, U_ACCEL_PXPS2, gate_sigma=5.0,
-                                                  reacquire_s=s.reacquire_s, init_samples=3)
 
     def disparity(self, sigma_meas_px: float) -> KalmanDesign:
         if sigma_meas_px not in self._disparity:
@@ -85,9 +94,10 @@ class Designs:
         return self._disparity[sigma_meas_px]
 
 
-def reference_point(patch: np.ndarray, box: tuple[int, int, int, int], origin: tuple[int, int],
-                    window: int) -> tuple[float, float]:
-    """The best-textured window centre in the upper part of `box` (rectified pixels, [x0, x1) x [y0, y1)).
+def reference_points(patch: np.ndarray, box: tuple[int, int, int, int], origin: tuple[int, int],
+                     window: int, count: int = 1) -> list[tuple[float, float]]:
+    """The best-textured window centres in the upper part of `box` (rectified px, [x0, x1) x [y0, y1)),
+    best first, at least half a window apart.
 
     `patch` holds the rectified left image from `origin` (x, y) and covers the box plus half a
     window on each side. Ties go to the first (top-left) maximum, so the choice is deterministic."""
@@ -98,14 +108,22 @@ def reference_point(patch: np.ndarray, box: tuple[int, int, int, int], origin: t
     gx2[:, 1:-1] = (g[:, 2:] - g[:, :-2]) ** 2
     energy = cv2.boxFilter(gx2, -1, (window, window), normalize=False, borderType=cv2.BORDER_CONSTANT)
     r1 = y0 + max(1, int(math.ceil(UPPER_SHARE * (y1 - y0))))
-    sub = energy[y0 - oy:r1 - oy, x0 - ox:x1 - ox]
-    iy, ix = np.unravel_index(int(np.argmax(sub)), sub.shape)
-    return float(x0 + ix), float(y0 + iy)
+    sub = energy[y0 - oy:r1 - oy, x0 - ox:x1 - ox].copy()
+    out = []
+    for _ in range(count):
+        iy, ix = np.unravel_index(int(np.argmax(sub)), sub.shape)
+        if out and sub[iy, ix] <= 0.0:
+            break
+        out.append((float(x0 + ix), float(y0 + iy)))
+        h = window // 2
+        sub[max(0, iy - h):iy + h + 1, max(0, ix - h):ix + h + 1] = -1.0
+    return out
 
 
-def follow(previous: np.ndarray, current: np.ndarray) -> tuple[float, float] | None:
+def follow(previous: np.ndarray, current: np.ndarray) -> tuple[float, float, float] | None:
     """Sub-pixel shift (dx, dy) of the window `previous` inside the larger `current` region,
-    relative to the centre of `current`; None at the search edge or for a flat cost surface.
+    relative to the centre of `current`, and the SSD per pixel at the best whole-pixel shift;
+    None at the search edge or for a flat cost surface.
 
     Stand-in for the core's sub-pixel point tracker (issue 4) until it lands: SSD by
     cv2.matchTemplate and a 3-point parabola (eq. 5.2) along each axis."""
@@ -118,7 +136,7 @@ def follow(previous: np.ndarray, current: np.ndarray) -> tuple[float, float] | N
     fy = _vertex(cost[iy - 1, ix], cost[iy, ix], cost[iy + 1, ix])
     if fx is None or fy is None:
         return None
-    return ix - rx + fx, iy - ry + fy
+    return ix - rx + fx, iy - ry + fy, float(cost[iy, ix]) / previous.size
 
 
 def _vertex(cm: float, c0: float, cp: float) -> float | None:
@@ -127,32 +145,242 @@ def _vertex(cm: float, c0: float, cp: float) -> float | None:
 
 
 class TrackPoint:
-    """The measured point of one track: position in the rectified left image, disparity, filters."""
+    """The measured point of one track: position in the rectified left image, disparity, filters.
+
+    States: *following* (the template is followed from pair to pair and matched in the right
+    image) and *searching* (the follow failed, matched too badly or off the track's motion — a
+    ship passing in front — or the filter refused REJECTS_TO_SEARCH valid matches in a row: the
+    point slid onto another object). While searching the point coasts on the track's image
+    motion and the filters coast; the table offers new points on the ship (`try_point`), and
+    one whose disparity fits the filter's prediction resumes following. The filters are kept,
+    so the track keeps its range history and cannot adopt another ship's."""
 
     def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs) -> None:
         self.s = settings
         self.designs = designs
         self.u, self.v = u, v
-        self.template: np.ndarray | None = None  # window around (round(u), round(v)) in the last image
+        self.template: np.ndarray | None = None  # window around template_at in the last image
+        self.template_at = (0, 0, 0.0, 0.0)  # its centre pixel, and the point (u, v) then
+        self.template_age = 0  # pairs since it was taken
         self.match: Match | None = None  # this pair's right match (None: not attempted)
         self.raw_disparity: float | None = None
-        self.disparity: float | None = None  # filtered
-        self.rate_pxps = 0.0  # filtered d'
-        self.sigma_px = math.inf
+        self.accepted = False  # this pair's measurement went into the filter
+        self.searching = False
+        self.search_frames = 0
+        self.rejects = 0
+        self.frame = 0  # pairs seen (and skipped): the time axis of the column fit
         self.u_filtered: float | None = None
         self.u_rate_pxps = 0.0
-        self.updates = 0  # accepted disparity measurements since the filter (re)started
-        self.accepted = False  # this pair's measurement went into the filter
         self.noise_px = settings.sigma_meas_px  # the Kalman design level in use
+        self.memory: tuple[int, float, float, float] | None = None  # last accepted (frame, d, d', sigma)
         self.recent: deque[float] = deque(maxlen=NOISE_WINDOW)
+        self.follow_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # SSD per pixel of good follows
+        self.match_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # matcher costs of clean matches
+        self.columns: deque[tuple[int, float]] = deque(maxlen=max(3, int(round(COLUMN_FIT_S * settings.fps))))
         self._reset_filters()
 
     def _reset_filters(self) -> None:
         s = self.s
         self.kalman = DisparityKalman(self.designs.disparity(self.noise_px)) if s.filter == "kalman" else None
         self.butter = ButterworthQ(s.butterworth_cutoff_hz, s.fps) if s.filter == "butterworth" else None
-        self.column = DisparityKalman(self.designs.column)
-        self.disparity, self.sigma_px, self.updates = None, math.inf, 0
+        self.disparity: float | None = None  # filtered
+        self.rate_pxps = 0.0  # filtered d'
+        self.sigma_px = math.inf
+        self.updates = 0  # accepted disparity measurements since the filter (re)started
+
+    def reanchor(self, u: float, v: float) -> None:
+        """Start over at a new point on the same ship: new template, the filters restart."""
+        self.u, self.v = u, v
+        self.template = None
+        self.searching, self.search_frames, self.rejects = False, 0, 0
+        self.follow_costs.clear()
+        self.match_costs.clear()
+        self.columns.clear()
+        self._reset_filters()
+
+    # ------------------------------------------------------------ per pair
+    def step(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, skipped: int = 0,
+             candidates: Callable[[], list[tuple[float, float]]] | None = None) -> bool:
+        """Follow the point into this pair and measure its disparity; False once the point is lost
+        for good (off the image, or searched for longer than reacquire_s).
+
+        `skipped` pairs were missing since the last call (the filters coast through them).
+        `candidates()` lists other points on the ship to try while searching."""
+        for _ in range(skipped):
+            self._coast()
+        self.frame += 1
+        self.match = None
+        if not self.searching and self.template is not None:
+            h, r = self.s.window // 2, self.s.follow_radius_px
+            pu = self.u + self.u_rate_pxps / self.s.fps
+            cu, cv = int(round(pu)), int(round(self.v))
+            region = rect.patch(left, 0, cu - h - r, cv - h - r, 2 * (h + r) + 1, 2 * (h + r) + 1)
+            found = follow(self.template, region)
+            if found is None or self._off_track(found, pu - cu):
+                self.searching = True
+            else:
+                self.follow_costs.append(found[2])
+                tu, tv, tx, ty = self.template_at  # the template's centre pixel moved by the shift
+                self.u = tx + cu + found[0] - tu
+                self.v = ty + cv + found[1] - tv
+        if self.searching:
+            for u, v in candidates() if candidates is not None else []:
+                if self._try(u, v, left, right, rect):
+                    return True
+            self._coast()
+            self.search_frames += 1
+            return self._in_image(rect) and self.search_frames <= self.s.reacquire_s * self.s.fps
+        if not self._in_image(rect):
+            self._coast()
+            return False
+        self._measure(left, right, rect)
+        return True
+
+    def _try(self, u: float, v: float, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> bool:
+        """Resume following at (u, v) if its disparity fits the filter's prediction (at once when
+        there is no prediction)."""
+        prediction = self.prediction()
+        if (prediction is None and self.s.filter != "none") or not self._in_image(rect, round(u), round(v)):
+            return False  # without a prediction any point would do: better lose the track than jump
+        m = self._match_at(left, right, rect, u, v, None if prediction is None else prediction[0])
+        if prediction is not None:
+            tolerance = self.s.gate_sigma * math.hypot(prediction[1], self.noise_px)
+            if not (m.valid and abs(m.disparity_px - prediction[0]) <= tolerance):
+                return False
+        self.u, self.v = u, v
+        self.searching, self.search_frames, self.rejects = False, 0, 0
+        self.follow_costs.clear()
+        self.columns.clear()  # another point of the ship: keep the rate, restart the line fit
+        self._take_template(left, rect)
+        self.match = m
+        self._filter(m.disparity_px if m.valid else None)
+        self._fit_column()
+        return True
+
+    def predicted_disparity(self) -> float | None:
+        prediction = self.prediction()
+        return None if prediction is None else prediction[0]
+
+    def prediction(self) -> tuple[float, float] | None:
+        """(disparity, 1-sigma) expected in this pair: the filter's prediction, or while the filter
+        restarts the last accepted estimate carried forward; None when there is neither."""
+        if self.s.filter == "none":
+            return None
+        if self.disparity is not None:
+            return self.disparity + self.rate_pxps / self.s.fps, self.sigma_px
+        return self._memory_now()
+
+    def _memory_now(self) -> tuple[float, float] | None:
+        """(disparity, 1-sigma) of the last accepted estimate carried forward to this pair, with the
+        uncertainty grown by what the fastest ship could have done since; None once too old."""
+        if self.memory is None:
+            return None
+        frame, d, rate, sigma = self.memory
+        dt_s = (self.frame - frame) / self.s.fps
+        if dt_s > MEMORY_S:
+            return None
+        return d + rate * dt_s, math.hypot(sigma, self._max_rate(d) * dt_s)
+
+    def _fits_memory(self, z: float) -> bool:
+        memory = self._memory_now()
+        if memory is None:
+            return True
+        return abs(z - memory[0]) <= self.s.gate_sigma * math.hypot(memory[1], self.noise_px)
+
+    def _max_rate(self, d: float) -> float:
+        """|d'| of a ship at MAX_SHIP_SPEED_MPS straight at the rig: d^2 v / (f B), px/s."""
+        return d * d * MAX_SHIP_SPEED_MPS / self.s.fb_px_m if self.s.fb_px_m > 0 else math.inf
+
+    def _plausible_rate(self, d: float, rate: float) -> float:
+        limit = self._max_rate(max(d, 0.0))
+        return min(max(rate, -limit), limit)
+
+    # ------------------------------------------------------------ internals
+    def _in_image(self, rect: Rectifier, ui: int | None = None, vi: int | None = None) -> bool:
+        h = self.s.window // 2
+        ui = int(round(self.u)) if ui is None else ui
+        vi = int(round(self.v)) if vi is None else vi
+        return h + 2 <= ui < rect.rig.width - h - 2 and h + 1 <= vi < rect.rig.height - h - 1
+
+    def _coast(self) -> None:
+        """A pair without a measurement: the point moves with the image motion, filters coast."""
+        self.u += self.u_rate_pxps / self.s.fps
+        self._filter(None)
+
+    def _off_track(self, found: tuple[float, float, float], offset_px: float) -> bool:
+        """The template matched too badly (something in front of it), or too far from where the
+        track's own motion puts it (the match jumped to another object). `offset_px` is the
+        predicted column's fraction left out by the search region's whole-pixel centre."""
+        dx, dy, cost = found
+        if len(self.follow_costs) >= 5:
+            typical = float(np.median(np.fromiter(self.follow_costs, float)))
+            if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
+                return True
+        return len(self.columns) >= 3 and math.hypot(dx - offset_px, dy) > FOLLOW_GATE_PX
+
+    def _take_template(self, left: np.ndarray, rect: Rectifier) -> None:
+        h = self.s.window // 2
+        ui, vi = int(round(self.u)), int(round(self.v))
+        self.template = rect.patch(left, 0, ui - h, vi - h, 2 * h + 1, 2 * h + 1).copy()
+        self.template_at = (ui, vi, self.u, self.v)
+        self.template_age = 0
+        self.follow_costs.clear()
+
+    def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> None:
+        # keep following the same template for a while: re-taking it every pair would add each
+        # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
+        # straddles the ship's outline); its appearance changes slowly, so refresh it now and then
+        self.template_age += 1
+        worse = len(self.follow_costs) >= 2 and self.follow_costs[-1] > 2.0 * min(self.follow_costs)
+        if self.template is None or self.template_age >= TEMPLATE_REFRESH_S * self.s.fps or worse:
+            self._take_template(left, rect)
+        m = self.match = self._match_at(left, right, rect, self.u, self.v, self.predicted_disparity())
+        clean = m.valid and not self._mixed(m.cost)
+        self._filter(m.disparity_px if clean else None)
+        if m.valid and not self.accepted and self.kalman is not None and self.kalman.running:
+            self.rejects += 1  # a match the track refuses: mixed window, or the point is on something else
+            if self.rejects >= REJECTS_TO_SEARCH:
+                self.searching = True
+        else:
+            self.rejects = 0
+            if clean:
+                self.match_costs.append(m.cost)
+        self._fit_column()
+
+    def _mixed(self, cost: float) -> bool:
+        """A match much worse than this track's typical one: the window holds two objects at
+        different ranges (a ship passing in front), which pulls the disparity between theirs."""
+        if len(self.match_costs) < 5:
+            return False
+        n2 = float(self.s.window**2) ** 2  # ZSSD costs are N sum D^2 - (sum D)^2: N^2 x the variance
+        typical = float(np.median(np.fromiter(self.match_costs, float)))
+        return cost > MIXED_COST_FACTOR * typical + MIXED_COST_FLOOR_DN2 * n2
+
+    def _fit_column(self) -> None:
+        """Least-squares line through the recent (frame, column) follows: smoothed u and its rate."""
+        self.columns.append((self.frame, self.u))
+        if len(self.columns) < 3:
+            return
+        t = np.array([c[0] for c in self.columns], float)
+        u = np.array([c[1] for c in self.columns])
+        slope, intercept = np.polyfit(t - t[-1], u, 1)
+        self.u_filtered, self.u_rate_pxps = float(intercept), float(slope) * self.s.fps
+
+    def _match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
+                  pred: float | None) -> Match:
+        s, h = self.s, self.s.window // 2
+        ui, vi = int(round(u)), int(round(v))
+        d_hi = s.max_disparity
+        if pred is not None:
+            d_hi = max(4, min(d_hi, int(math.ceil(pred)) + s.search_radius_px + 1))
+        x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
+        lp = rect.patch(left, 0, x0, vi - h, width, 2 * h + 1)
+        rp = rect.patch(right, 1, x0, vi - h, width, 2 * h + 1)
+        return match_point(lp, rp, u - x0, v - (vi - h), window=s.window, max_disparity=d_hi,
+                           predicted_disparity=pred,
+                           search_radius=s.search_radius_px if pred is not None else None,
+                           cost=s.cost, subpixel=s.subpixel, noise_dn=s.noise_dn,
+                           max_sigma_px=s.max_sigma_px)
 
     def scatter_px(self) -> float | None:
         """Robust noise of the recent raw disparities: MAD of successive differences / sqrt(2)
@@ -174,75 +402,21 @@ class TrackPoint:
             self.noise_px = level
             self.kalman.design = self.designs.disparity(level)
 
-    def reanchor(self, u: float, v: float) -> None:
-        """Move to a new reference point on the same ship: new template, filters restart."""
-        self.u, self.v = u, v
-        self.template = None
-        self._reset_filters()
-
-    # ------------------------------------------------------------ per pair
-    def step(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, skipped: int = 0) -> bool:
-        """Follow the point into this pair and measure its disparity; False if the point is lost.
-
-        `skipped` pairs were missing since the last call (the filters coast through them)."""
-        for _ in range(skipped):
-            self._filter(None)
-            self.u += self.u_rate_pxps / self.s.fps
-        h = self.s.window // 2
-        if self.template is not None:
-            r = self.s.follow_radius_px
-            pu = self.u + self.u_rate_pxps / self.s.fps
-            cu, cv = int(round(pu)), int(round(self.v))
-            region = rect.patch(left, 0, cu - h - r, cv - h - r, 2 * (h + r) + 1, 2 * (h + r) + 1)
-            shift = follow(self.template, region)
-            if shift is None:
-                self._filter(None)
-                self.match = None
-                return False
-            # the template was centred on the rounded old point; the texture moved by `shift`
-            self.u += cu + shift[0] - round(self.u)
-            self.v += cv + shift[1] - round(self.v)
-        ui, vi = int(round(self.u)), int(round(self.v))
-        if not (h + 2 <= ui < rect.rig.width - h - 2 and h + 1 <= vi < rect.rig.height - h - 1):
-            self._filter(None)
-            self.match = None
-            return False
-        self.template = rect.patch(left, 0, ui - h, vi - h, 2 * h + 1, 2 * h + 1).copy()
-        self.match = self._match(left, right, rect, ui, vi)
-        self._filter(self.match.disparity_px if self.match.valid else None)
-        column = self.column.update(self.u)
-        if column.valid:
-            self.u_filtered, self.u_rate_pxps = column.disparity_px, column.rate_pxps
-        return True
-
-    def _match(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, ui: int, vi: int) -> Match:
-        s, h = self.s, self.s.window // 2
-        predicted = self.disparity if (self.disparity is not None and self.s.filter != "none") else None
-        if predicted is not None:
-            pred = predicted + self.rate_pxps / s.fps
-            d_hi = min(s.max_disparity, int(math.ceil(pred)) + s.search_radius_px + 1)
-        else:
-            pred, d_hi = None, s.max_disparity
-        d_hi = max(d_hi, 4)
-        x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
-        lp = rect.patch(left, 0, x0, vi - h, width, 2 * h + 1)
-        rp = rect.patch(right, 1, x0, vi - h, width, 2 * h + 1)
-        m = match_point(lp, rp, self.u - x0, self.v - (vi - h), window=s.window, max_disparity=d_hi,
-                        predicted_disparity=pred,
-                        search_radius=s.search_radius_px if pred is not None else None,
-                        cost=s.cost, subpixel=s.subpixel, noise_dn=s.noise_dn, max_sigma_px=s.max_sigma_px)
-        return m
-
     def _filter(self, z: float | None) -> None:
         self.raw_disparity = z
         if z is not None:
             self.recent.append(z)
             self._adapt_noise()
         if self.kalman is not None:
+            if z is not None and not self.kalman.running and not self._fits_memory(z):
+                z = None  # a restart must pick up this ship, not whatever the point now sees
             est = self.kalman.update(z)
             if est.valid:
-                self.disparity, self.rate_pxps, self.sigma_px = est.disparity_px, est.rate_pxps, est.sigma_px
+                rate = self._plausible_rate(est.disparity_px, est.rate_pxps)
+                self.disparity, self.rate_pxps, self.sigma_px = est.disparity_px, rate, est.sigma_px
                 self.updates += int(est.accepted)
+                if est.accepted:
+                    self.memory = (self.frame, est.disparity_px, rate, est.sigma_px)
             else:
                 self.disparity, self.sigma_px, self.updates = None, math.inf, 0
             self.accepted = bool(est.valid and est.accepted)
