@@ -161,6 +161,35 @@ def calibration_from_dict(data: Any, file: str | Path | None, key_prefix: str = 
     return Calibration(rig=rig, site=None if spec.site is None else _site(spec.site))
 
 
+def resolve_path(file: str | Path | None, path: str) -> Path:
+    """`path` as written in `file`: absolute, or relative to the file's directory."""
+    p = Path(path).expanduser()
+    return p if p.is_absolute() or file is None else Path(file).resolve().parent / p
+
+
+def calibration_ref(value: Any, file: str | Path | None, key: str) -> Calibration | None:
+    """A `calibration:` entry of a config or scenario: null, a file path (relative to `file`), or inline."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        path = resolve_path(file, value)
+        try:
+            return load_calibration(path)
+        except ConfigError as exc:
+            if exc.key:  # a mistake inside the calibration file: that file and key are the news
+                raise
+            found = f"{path}: {exc.found}" if exc.found is not None else str(path)
+            raise ConfigError(file, key, f"a calibration file ({exc.expected})", found) from None
+    if isinstance(value, dict):
+        return calibration_from_dict(value, file, key)
+    raise ConfigError(file, key, "a calibration file path or an inline calibration mapping", value)
+
+
+def optional_site(value: Any, file: str | Path | None, key: str) -> Site | None:
+    """A `site:` entry that may be null."""
+    return None if value is None else site_from_dict(value, file, key)
+
+
 def load_calibration(path: str | Path) -> Calibration:
     """Read and validate a calibration YAML file."""
     return calibration_from_dict(load_yaml(path), path)

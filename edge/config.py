@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
-from edge.calibration import Calibration, calibration_from_dict, load_calibration, site_from_dict
+from edge.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.core.site import Site
 from edge.errors import ConfigError
 from edge.schema import load_dataclass, load_yaml, setting
@@ -51,33 +51,6 @@ def _ipv4(value: str) -> str | None:
 
 def _odd(value: int) -> str | None:
     return None if value % 2 == 1 else "an odd integer (the window is centred on the point)"
-
-
-def _load_calibration_ref(value: Any, file: Any, key: str) -> Calibration | None:
-    """`calibration:` is a path (relative to the config file) or an inline calibration mapping."""
-    if value is None:
-        return None
-    if isinstance(value, str):
-        path = _resolve(file, value)
-        try:
-            return load_calibration(path)
-        except ConfigError as exc:
-            if exc.key:  # a mistake inside the calibration file: that file and key are the news
-                raise
-            found = f"{path}: {exc.found}" if exc.found is not None else str(path)
-            raise ConfigError(file, key, f"a calibration file ({exc.expected})", found) from None
-    if isinstance(value, dict):
-        return calibration_from_dict(value, file, key)
-    raise ConfigError(file, key, "a calibration file path or an inline calibration mapping", value)
-
-
-def _load_site(value: Any, file: Any, key: str) -> Site | None:
-    return None if value is None else site_from_dict(value, file, key)
-
-
-def _resolve(file: Any, path: str) -> Path:
-    p = Path(path).expanduser()
-    return p if p.is_absolute() or file is None else Path(file).resolve().parent / p
 
 
 # ---------------------------------------------------------------- cameras
@@ -247,13 +220,13 @@ class AppConfig:
     )
     calibration: Calibration | None = setting(
         None,
-        load=_load_calibration_ref,
+        load=calibration_ref,
         accepts="a file path or a calibration mapping, or null",
         doc="calibration YAML (path relative to this file, or inline); null: the scenario's/recording's",
     )
     site: Site | None = setting(
         None,
-        load=_load_site,
+        load=optional_site,
         accepts="a site mapping or null",
         doc="lat_deg, lon_deg, height_m, heading_deg; overrides the calibration's",
     )
@@ -280,9 +253,9 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
         if cams.left == cams.right:
             raise ConfigError(file, "cameras.right", "a device other than cameras.left", cams.right)
     elif isinstance(cams, ReplayCameras):
-        cfg = replace(cfg, cameras=replace(cams, path=str(_resolve(file, cams.path))))
+        cfg = replace(cfg, cameras=replace(cams, path=str(resolve_path(file, cams.path))))
     elif cams.scenario.endswith((".yaml", ".yml")):
-        cfg = replace(cfg, cameras=replace(cams, scenario=str(_resolve(file, cams.scenario))))
+        cfg = replace(cfg, cameras=replace(cams, scenario=str(resolve_path(file, cams.scenario))))
     ports = [p.url for p in cfg.outputs.nmea]
     if cfg.outputs.modbus.rtu.enabled:
         ports.append(cfg.outputs.modbus.rtu.url)
@@ -291,7 +264,7 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
             key = f"outputs.nmea[{i}].url" if i < len(cfg.outputs.nmea) else "outputs.modbus.rtu.url"
             raise ConfigError(file, key, "a serial port not used by another output", url)
     if cfg.outputs.tracks_csv is not None:
-        outputs = replace(cfg.outputs, tracks_csv=str(_resolve(file, cfg.outputs.tracks_csv)))
+        outputs = replace(cfg.outputs, tracks_csv=str(resolve_path(file, cfg.outputs.tracks_csv)))
         cfg = replace(cfg, outputs=outputs)
     return cfg
 

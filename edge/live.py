@@ -56,20 +56,16 @@ class SourcePlan:
 
 def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
     """Resolve `cameras` and the calibration; ConfigError names the key on any problem."""
-    base = Path(config_file).resolve().parent if config_file else Path.cwd()
-    cams = config.cameras
+    cams = config.cameras  # relative paths in it are already resolved against the config file
     if isinstance(cams, VirtualCameras):
-        name = cams.scenario
-        if name.endswith((".yaml", ".yml")) and not Path(name).is_absolute():
-            name = str(base / name)
-        scenario = load_scenario(name)
+        scenario = load_scenario(cams.scenario)
         cal = config.calibration or scenario.spec.calibration
         site = config.effective_site or scenario.spec.site or cal.site
         return SourcePlan(lambda: live_source(scenario, cams.seed, cams.pace, cams.loop),
                           Calibration(cal.rig, site), scenario.spec.fps,
                           f"virtual scenario {cams.scenario!r} seed {cams.seed}")
     if isinstance(cams, ReplayCameras):
-        root = Path(cams.path) if Path(cams.path).is_absolute() else base / cams.path
+        root = Path(cams.path)
         try:
             probe = ReplaySource(root)
         except (OSError, ValueError) as exc:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from edge.calibration import Calibration, calibration_from_dict, load_calibration, site_from_dict
+from edge.calibration import Calibration, calibration_ref, optional_site
 from edge.core.site import Site
 from edge.errors import ConfigError
 from edge.schema import load_dataclass, load_yaml, setting
@@ -30,21 +30,11 @@ SCENARIO_DIR = Path(__file__).resolve().parents[2] / "config" / "scenarios"
 
 
 def _calibration(value: Any, file: Any, key: str) -> Calibration:
-    """A calibration file path (relative to the scenario) or an inline calibration mapping."""
-    if isinstance(value, str):
-        path = (
-            Path(value) if Path(value).is_absolute() or file is None else Path(file).resolve().parent / value
-        )
-        if not path.is_file():
-            raise ConfigError(file, key, "a calibration file (path relative to the scenario)", str(path))
-        return load_calibration(path)
-    if isinstance(value, dict):
-        return calibration_from_dict(value, file, key)
-    raise ConfigError(file, key, "a calibration file path or an inline calibration mapping", value)
-
-
-def _site(value: Any, file: Any, key: str) -> Site | None:
-    return None if value is None else site_from_dict(value, file, key)
+    """A calibration file path (relative to the scenario) or an inline calibration mapping; required."""
+    cal = calibration_ref(value, file, key)
+    if cal is None:
+        raise ConfigError(file, key, "a calibration file path or an inline calibration mapping", value)
+    return cal
 
 
 @dataclass(frozen=True)
@@ -115,7 +105,7 @@ class ScenarioSpec:
     )
     site: Site | None = setting(
         None,
-        load=_site,
+        load=optional_site,
         accepts="a site mapping or null",
         doc="lat_deg, lon_deg, height_m, heading_deg; overrides the calibration's",
     )
