@@ -97,8 +97,17 @@ class SerialPortBase(abc.ABC):
             self._thread = threading.Thread(target=self._run, name=f"serial-writer {self.name}", daemon=True)
             self._thread.start()
 
-    def close(self, timeout_s: float = 2.0) -> None:
-        """Stop the writer thread (unblocking a stalled write) and close the port."""
+    def close(self, timeout_s: float = 2.0, *, drain: bool = False) -> None:
+        """Stop the writer thread (unblocking a stalled write) and close the port.
+
+        With `drain`, first give the writer up to `timeout_s` to empty the queue (a log file at
+        shutdown); what is still queued after that is counted as dropped.
+        """
+        if drain and self._thread is not None:
+            with self._cond:
+                self._cond.wait_for(lambda: not self._queue or not self._connected, timeout_s)
+        with self._cond:
+            self._counts["dropped"] += len(self._queue) if drain else 0
         self._stop.set()
         with self._cond:
             self._cond.notify_all()
@@ -156,6 +165,7 @@ class SerialPortBase(abc.ABC):
                 with self._cond:
                     self._counts["written_messages"] += 1
                     self._counts["written_bytes"] += len(data)
+                    self._cond.notify_all()  # a draining close() waits for the queue to empty
                 if self._stalled:
                     log.info("serial port %s writes again", self.name)
                 self._stalled = False

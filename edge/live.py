@@ -30,7 +30,7 @@ from edge.config import AppConfig, ReplayCameras, VirtualCameras
 from edge.errors import ConfigError
 from edge.fix import ShipFix
 from edge.health import HealthMonitor, HealthState, standard_stages
-from edge.outputs.fanout import OUTPUT_STAGES, Outputs
+from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Pipeline
 from edge.replay import recording_calibration
@@ -132,7 +132,7 @@ class Appliance:
             raise ConfigError(config_file, "site", "a site (lat_deg, lon_deg, height_m, heading_deg)")
         utc_offset_ns = time.time_ns() - time.monotonic_ns()  # live pairs are stamped on CLOCK_MONOTONIC
         pipeline = Pipeline(plan.calibration, config.pipeline, fps=plan.fps, utc_offset_ns=utc_offset_ns)
-        health = HealthMonitor(standard_stages(OUTPUT_STAGES))
+        health = HealthMonitor(standard_stages(output_stages(config.outputs, extra_nmea=bool(extra_nmea))))
         site = plan.calibration.site
         outputs = Outputs.from_config(config.outputs, health, max_tracks=config.pipeline.max_tracks,
                                       site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg)

@@ -2,8 +2,9 @@
 
 `Outputs` is what the daemon and the demo hand fixes to. It owns one
 `NmeaSerialOutput` per `outputs.nmea[i]` port, the optional IEC 61162-450 UDP
-output, and the Modbus TCP/RTU servers, and it stamps one health heartbeat
-per output kind ("nmea", "modbus") so a dead port shows on the status word.
+output, the Modbus TCP/RTU servers and the tracks CSV, and it stamps one
+health heartbeat per output kind ("nmea", "modbus", "tracks_csv") so a dead
+port shows on the status word.
 
 None of the outputs block: NMEA ports queue to their own writer threads,
 UDP sends are non-blocking, and a Modbus server only swaps an immutable
@@ -29,11 +30,25 @@ from edge.fix import ShipFix
 from edge.health import HealthMonitor, HealthSnapshot, Status
 from edge.outputs.nmea_out import NmeaSerialOutput
 from edge.outputs.nmea_udp import NmeaUdpOutput
+from edge.outputs.tracks_csv import TracksCsvOutput
 from edge.registers import Identity, SlotAssignment, WordOrder, build_snapshot
 
 log = logging.getLogger(__name__)
 
-OUTPUT_STAGES: tuple[tuple[str, Status], ...] = (("nmea", Status.NMEA_ACTIVE), ("modbus", Status(0)))
+OUTPUT_STAGES: tuple[tuple[str, Status], ...] = (
+    ("nmea", Status.NMEA_ACTIVE), ("modbus", Status(0)), ("tracks_csv", Status(0)),
+)
+
+
+def output_stages(cfg: OutputsConfig, *, extra_nmea: bool = False) -> list[tuple[str, Status]]:
+    """The health stages of the configured outputs only: an output that is off never beats,
+    and a stage that never beats would hold the appliance in DEGRADED."""
+    on = {
+        "nmea": bool(cfg.nmea) or cfg.udp.enabled or extra_nmea,
+        "modbus": cfg.modbus.tcp.enabled or cfg.modbus.rtu.enabled,
+        "tracks_csv": cfg.tracks_csv is not None,
+    }
+    return [(name, bit) for name, bit in OUTPUT_STAGES if on[name]]
 RETRY_MIN_S, RETRY_MAX_S = 1.0, 30.0
 
 
@@ -83,8 +98,10 @@ class Outputs:
         identity: Identity,
         health: HealthMonitor,
         clock: Callable[[], float] = time.monotonic,
+        tracks_csv: TracksCsvOutput | None = None,
     ) -> None:
         self.nmea = list(nmea)
+        self.tracks_csv = tracks_csv
         self.identity = identity
         self.health = health
         self._modbus = [_ServerSlot(s, clock) for s in modbus]
@@ -104,7 +121,8 @@ class Outputs:
             servers.append(ModbusRtuServer(rtu.url, rtu.unit, rtu.baud, rtu.parity, rtu.stopbits))
         order = WordOrder.HIGH_FIRST if cfg.modbus.word_order == "high_first" else WordOrder.LOW_FIRST
         identity = Identity(firmware_version(), max_tracks, order, site_lat_deg, site_lon_deg)
-        return cls(nmea, servers, identity, health)
+        csv = TracksCsvOutput(cfg.tracks_csv) if cfg.tracks_csv is not None else None
+        return cls(nmea, servers, identity, health, tracks_csv=csv)
 
     def start(self) -> None:
         for out in self.nmea:
@@ -112,6 +130,8 @@ class Outputs:
                 out.start()
         for slot in self._modbus:
             slot.ensure_started()
+        if self.tracks_csv is not None:
+            self.tracks_csv.start()
 
     def publish(self, fixes: Sequence[ShipFix], utc_ns: int) -> HealthSnapshot:
         """Hand this step's complete list of live fixes to every output; returns the health used."""
@@ -119,6 +139,10 @@ class Outputs:
         for out in self.nmea:
             lines += len(out.publish(fixes))
         self._beat_nmea(lines)
+        if self.tracks_csv is not None:
+            self.tracks_csv.publish(fixes)
+            fault, counters = self.tracks_csv.health()
+            self.health.beat("tracks_csv", fault=fault, counters=counters)
         snapshot = self.health.snapshot()
         numbers = self._target_numbers(fixes)
         image = build_snapshot(fixes, snapshot, self.identity, self._assignment,
@@ -137,6 +161,8 @@ class Outputs:
     def close(self) -> None:
         for out in self.nmea:
             out.close()
+        if self.tracks_csv is not None:
+            self.tracks_csv.close()
         for slot in self._modbus:
             if slot.running:
                 slot.server.stop()

@@ -10,7 +10,7 @@ import pynmea2
 from drivers.modbus import ModbusServer, VirtualModbusServer
 from drivers.serial_port import VirtualSerialPort
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthMonitor, HealthState, standard_stages
+from edge.health import HealthMonitor, HealthState, Status, standard_stages
 from edge.outputs.fanout import OUTPUT_STAGES, Outputs, firmware_version
 from edge.outputs.nmea_out import NmeaSerialOutput
 from edge.registers import Identity, read_field
@@ -111,3 +111,40 @@ def test_modbus_that_cannot_start_is_a_retried_fault_not_a_crash() -> None:
     assert server.attempts == 3 and len(server.images) == 1
     modbus = {s.name: s for s in health.snapshot().stages}["modbus"]
     assert modbus.fault is None
+
+
+def test_health_stages_follow_the_configured_outputs() -> None:
+    from edge.config import ModbusConfig, ModbusTcp, NmeaPort, OutputsConfig
+    from edge.outputs.fanout import output_stages
+
+    none = OutputsConfig(modbus=ModbusConfig(tcp=ModbusTcp(enabled=False)))
+    assert output_stages(none) == []
+    assert [n for n, _ in output_stages(none, extra_nmea=True)] == ["nmea"]
+    full = OutputsConfig(nmea=(NmeaPort(url="loop://"),), tracks_csv="/tmp/x.csv")
+    assert [n for n, _ in output_stages(full)] == ["nmea", "modbus", "tracks_csv"]
+
+
+def test_tracks_csv_gets_every_fix_and_survives_a_missing_directory(tmp_path) -> None:
+    import csv
+
+    from edge.outputs.tracks_csv import TracksCsvOutput
+    from edge.replay import CSV_HEADER
+
+    clock = Clock()
+    health = HealthMonitor(standard_stages([("tracks_csv", Status(0))]), clock=clock)
+    path = tmp_path / "later" / "tracks.csv"  # directory not there yet: a fault, retried
+    csv_out = TracksCsvOutput(str(path))
+    csv_out.file.retry_initial_s = csv_out.file.retry_max_s = 0.05
+    outputs = Outputs([], [], Identity(firmware_version()), health, clock=clock, tracks_csv=csv_out)
+    outputs.start()
+    outputs.publish([fix(1, 900.0)], T_NS)
+    assert wait_for(lambda: csv_out.health()[0] is not None)
+    outputs.publish([], T_NS)  # the writer found the fault asynchronously: the next step reports it
+    assert {s.name: s for s in health.snapshot().stages}["tracks_csv"].fault
+    path.parent.mkdir()
+    outputs.publish([fix(1, 905.0), fix(2, 1800.0)], T_NS + 10**8)
+    outputs.close()  # drains the queue
+    rows = list(csv.DictReader(path.read_text().splitlines()))
+    assert path.read_text().splitlines()[0] == CSV_HEADER
+    assert [(r["track_id"], r["range_m"]) for r in rows] == [("1", "900.000"), ("1", "905.000"),
+                                                             ("2", "1800.000")]
