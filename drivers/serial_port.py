@@ -105,7 +105,7 @@ class SerialPortBase(abc.ABC):
         """
         if drain and self._thread is not None:
             with self._cond:
-                self._cond.wait_for(lambda: not self._queue or not self._connected, timeout_s)
+                self._cond.wait_for(lambda: not self._queue, timeout_s)
         with self._cond:
             self._counts["dropped"] += len(self._queue) if drain else 0
         self._stop.set()
