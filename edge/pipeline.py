@@ -76,7 +76,8 @@ class Pipeline:
             fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=cfg.cost,
             subpixel=subpixel,
             filter=filter or cfg.filter, butterworth_cutoff_hz=cfg.butterworth_cutoff_hz,
-            gate_sigma=cfg.gate_sigma, reacquire_s=cfg.coast_s, fb_px_m=self.rect.f_px * self.rig.baseline_m)
+            gate_sigma=cfg.gate_sigma, reacquire_s=cfg.coast_s, baseline_m=self.rig.baseline_m,
+            focal_px=self.rect.f_px)
         self.table = TrackTable(self.rect, site.height_m, self.point_settings,
                                 TableSettings(coast_s=cfg.coast_s, max_tracks=cfg.max_tracks,
                                               waterline_tol_px=2.0 + 2.0 * cfg.detect_decimation))

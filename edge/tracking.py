@@ -32,12 +32,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
 from edge.fix import TrackStatus
 from edge.trackpoint import Designs, PointSettings, TrackPoint, reference_points
 
 MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
+VERTICAL_SHARE = 0.25  # a ship's disparity changes by less than this share of the sea's per row
+SLOPE_ROWS = 4  # rows above and below the point for that test
+ROW_SIGMA_PX = 0.5  # row uncertainty of the point for its height above the sea
 SEARCH_CANDIDATES = 6  # points offered to a track that lost its point on the ship
 
 
@@ -51,6 +55,7 @@ class TableSettings:
     max_tracks: int = 32
     waterline_tol_px: float = 4.0  # rows of slack in the waterline check (detection box bottom)
     max_ship_length_m: float = 400.0  # the point may be this much farther than the waterline's nearest
+    min_height_m: float = 1.0  # a track's point must stand this far above the sea to become T
 
 
 class Track:
@@ -63,6 +68,7 @@ class Track:
         self.point = point
         self.box_rel = box - np.array([point.u, point.v, point.u, point.v])  # box relative to the point
         self.confirmations: deque[bool] = deque([True], maxlen=confirm_m)
+        self.slopes: list[float] = []  # disparity change per row across the point (acquiring only)
         self.last_measured_ns = t_ns
         self.last_confirmed_ns = t_ns
         self.lost_since_ns: int | None = None
@@ -144,7 +150,7 @@ class TrackTable:
             for i, j in zip(rows, cols, strict=True):
                 if cost[i, j] < 1.0 or _contains(boxes[j], tracks[i].point.u, tracks[i].point.v):
                     taken[j] = True
-                    confirmed[i] = self._confirm(tracks[i], boxes[j], left, t_ns)
+                    confirmed[i] = self._confirm(tracks[i], boxes[j], left, right, t_ns)
         for i, track in enumerate(tracks):
             # ships in line merge into one blob: it confirms every track whose point it covers
             if not confirmed[i] and any(_contains(db, track.point.u, track.point.v) for db in boxes):
@@ -158,13 +164,17 @@ class TrackTable:
             if len(self.tracks) < self.s.max_tracks:
                 self._birth(left, right, t_ns, db)
 
-    def _confirm(self, track: Track, box: np.ndarray, left: np.ndarray, t_ns: int) -> bool:
+    def _confirm(self, track: Track, box: np.ndarray, left: np.ndarray, right: np.ndarray, t_ns: int) -> bool:
         p = track.point
         if not _contains(box, p.u, p.v) and p.prediction() is None:
             # a point that never measured anything and is off the ship: start over on the ship (one
             # with a range history stays: a searching point gets candidates from this box next pair)
             p.reanchor(*self._reference(left, box))
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
+        if track.status is TrackStatus.ACQUIRING and not p.searching:
+            slope = self._slope(p, left, right)
+            if slope is not None:
+                track.slopes.append(slope)
         d = p.disparity if p.disparity is not None else p.raw_disparity
         if d is not None and not self._on_the_sea(d, box):
             return False
@@ -210,6 +220,44 @@ class TrackTable:
         slack = 3.0 * max(self.ps.max_sigma_px, 0.1)
         return d_min - slack <= disparity_px <= 1.1 * d_max + slack
 
+    def _standing(self, track: Track) -> bool:
+        """A ship stands up out of the sea; wave crests and troughs that persist and match in
+        stereo lie on it. Two tests: (1) the sea's disparity grows by L_B / h per row below the
+        horizon (h the camera height: the same on every row, for any focal length), a ship's
+        side is vertical and keeps one disparity; so the disparity measured above and below the
+        point must change by much less than L_B / h per row; (2) the triangulated point must
+        stand clear of the sea below it."""
+        if not track.slopes:
+            return False
+        sea_slope = self.rect.rig.baseline_m / max(self.site_height_m, 1.0)
+        vertical = abs(float(np.median(track.slopes))) <= VERTICAL_SHARE * sea_slope
+        return vertical and self._above_sea(track.point)
+
+    def _slope(self, p: TrackPoint, left: np.ndarray, right: np.ndarray) -> float | None:
+        """Disparity change per row across the point: matches SLOPE_ROWS above and below it."""
+        pred = p.predicted_disparity()
+        d = []
+        for dv in (-SLOPE_ROWS, SLOPE_ROWS):
+            m = p.match_at(left, right, self.rect, p.u, p.v + dv, pred)
+            if not m.valid:
+                return None
+            d.append(m.disparity_px)
+        return (d[1] - d[0]) / (2 * SLOPE_ROWS)
+
+    def _above_sea(self, p: TrackPoint) -> bool:
+        """Does the point stand clear of the sea? Wave crests and troughs that persist and match
+        in stereo are *on* the sea; a ship's superstructure is metres above it. The height comes
+        from the triangulated point (eq. 4.1) against the curved sea below it; its 1-sigma is the
+        range error's share plus ROW_SIGMA_PX of the row."""
+        f, b = self.rect.f_px, self.rect.rig.baseline_m
+        x, y = self.rect.rect_to_normalised(np.array([p.u, p.v]))
+        z = f * b / p.disparity
+        point = np.array([z * (x - 0.5 * p.disparity / f), z * y, z])
+        height = float(height_above_sea_m(point, self.site_height_m))
+        sigma_z = z * z * p.sigma_px / (f * b)
+        sigma = math.hypot(abs(y) * sigma_z, z * ROW_SIGMA_PX / f)
+        return height >= max(self.s.min_height_m, 3.0 * sigma)
+
     def _sea_range(self, u: float, v: float) -> float:
         return sea_range_at(self.rect, self.site_height_m, u, v)
 
@@ -221,7 +269,7 @@ class TrackTable:
             misses = len(track.confirmations) - hits
             if misses > s.confirm_m - s.confirm_n or t_ns - track.last_measured_ns > s.coast_s * 1e9:
                 self._drop(track)
-            elif hits >= s.confirm_n and track.point.disparity is not None:
+            elif hits >= s.confirm_n and track.point.disparity is not None and self._standing(track):
                 track.status = TrackStatus.TRACKING
             return
         stale = (t_ns - track.last_measured_ns > s.coast_s * 1e9

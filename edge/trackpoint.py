@@ -71,7 +71,8 @@ class PointSettings:
     sigma_accel_pxps2: float = 0.05  # the Kalman's white acceleration (max d'' of a ship)
     search_radius_px: int = 4  # disparity search around the prediction
     follow_radius_px: int = 4  # left-follow search around the predicted position
-    fb_px_m: float = 0.0  # focal length x baseline: bounds the disparity rate (0: no bound)
+    baseline_m: float = 0.0  # with focal_px: bounds the image motion and disparity rates (0: no bound)
+    focal_px: float = 0.0
 
 
 class Designs:
@@ -242,7 +243,7 @@ class TrackPoint:
         prediction = self.prediction()
         if (prediction is None and self.s.filter != "none") or not self._in_image(rect, round(u), round(v)):
             return False  # without a prediction any point would do: better lose the track than jump
-        m = self._match_at(left, right, rect, u, v, None if prediction is None else prediction[0])
+        m = self.match_at(left, right, rect, u, v, None if prediction is None else prediction[0])
         if prediction is not None:
             tolerance = self.s.gate_sigma * math.hypot(prediction[1], self.noise_px)
             if not (m.valid and abs(m.disparity_px - prediction[0]) <= tolerance):
@@ -289,7 +290,8 @@ class TrackPoint:
 
     def _max_rate(self, d: float) -> float:
         """|d'| of a ship at MAX_SHIP_SPEED_MPS straight at the rig: d^2 v / (f B), px/s."""
-        return d * d * MAX_SHIP_SPEED_MPS / self.s.fb_px_m if self.s.fb_px_m > 0 else math.inf
+        fb = self.s.focal_px * self.s.baseline_m
+        return d * d * MAX_SHIP_SPEED_MPS / fb if fb > 0 else math.inf
 
     def _plausible_rate(self, d: float, rate: float) -> float:
         limit = self._max_rate(max(d, 0.0))
@@ -334,7 +336,7 @@ class TrackPoint:
         worse = len(self.follow_costs) >= 2 and self.follow_costs[-1] > 2.0 * min(self.follow_costs)
         if self.template is None or self.template_age >= TEMPLATE_REFRESH_S * self.s.fps or worse:
             self._take_template(left, rect)
-        m = self.match = self._match_at(left, right, rect, self.u, self.v, self.predicted_disparity())
+        m = self.match = self.match_at(left, right, rect, self.u, self.v, self.predicted_disparity())
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)
         if m.valid and not self.accepted and self.kalman is not None and self.kalman.running:
@@ -364,9 +366,13 @@ class TrackPoint:
         t = np.array([c[0] for c in self.columns], float)
         u = np.array([c[1] for c in self.columns])
         slope, intercept = np.polyfit(t - t[-1], u, 1)
-        self.u_filtered, self.u_rate_pxps = float(intercept), float(slope) * self.s.fps
+        rate = float(slope) * self.s.fps
+        if self.disparity is not None and self.disparity > 0 and self.s.baseline_m > 0:
+            limit = self.disparity * MAX_SHIP_SPEED_MPS / self.s.baseline_m  # |u'| <= f v / Z = d v / L_B
+            rate = min(max(rate, -limit), limit)
+        self.u_filtered, self.u_rate_pxps = float(intercept), rate
 
-    def _match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
+    def match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
                   pred: float | None) -> Match:
         s, h = self.s, self.s.window // 2
         ui, vi = int(round(u)), int(round(v))
@@ -411,12 +417,18 @@ class TrackPoint:
             if z is not None and not self.kalman.running and not self._fits_memory(z):
                 z = None  # a restart must pick up this ship, not whatever the point now sees
             est = self.kalman.update(z)
-            if est.valid:
+            memory = self._memory_now()
+            if est.valid and est.accepted:
                 rate = self._plausible_rate(est.disparity_px, est.rate_pxps)
                 self.disparity, self.rate_pxps, self.sigma_px = est.disparity_px, rate, est.sigma_px
-                self.updates += int(est.accepted)
-                if est.accepted:
-                    self.memory = (self.frame, est.disparity_px, rate, est.sigma_px)
+                self.updates += 1
+                self.memory = (self.frame, est.disparity_px, rate, est.sigma_px)
+            elif est.valid and memory is not None:
+                # coasting: carry the last accepted estimate at its (physically bounded) rate; the
+                # filter's own state may hold a rate a ramp of mixed windows talked it into
+                self.disparity, self.sigma_px = memory[0], max(est.sigma_px, memory[1])
+            elif est.valid:
+                self.disparity, self.sigma_px = est.disparity_px, est.sigma_px
             else:
                 self.disparity, self.sigma_px, self.updates = None, math.inf, 0
             self.accepted = bool(est.valid and est.accepted)

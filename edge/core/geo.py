@@ -92,6 +92,18 @@ def sea_range_m(depression_rad: np.ndarray, height_m: float,
     return np.where((disc >= 0.0) & (a > 0.0), slant * np.cos(a), np.inf)
 
 
+def height_above_sea_m(points_m: np.ndarray, site_height_m: float,
+                       refraction_k: float = REFRACTION_K) -> np.ndarray:
+    """Height of (..., 3) world points above the sea surface below them (effective-Earth sphere).
+
+    The sea at horizontal distance D lies D^2 / (2 R_e) below the site's tangent plane,
+    which sits `site_height_m` above it: height = h + D^2 / (2 R_e) - Y (Y is down)."""
+    p = np.asarray(points_m, dtype=np.float64)
+    r_e = EARTH_RADIUS_M / (1.0 - refraction_k)
+    d2 = p[..., 0] ** 2 + p[..., 2] ** 2
+    return site_height_m + d2 / (2.0 * r_e) - p[..., 1]
+
+
 def world_to_latlon(points_m: np.ndarray, site: Site) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(..., 3) world points -> (lat_deg, lon_deg, height above the site's datum m) on WGS-84."""
     return world_to_geodetic(points_m, site)
