@@ -38,6 +38,7 @@ from edge.trackpoint import FILTERS, SUBPIXELS, PointSettings
 log = logging.getLogger(__name__)
 
 MOTION_AFTER_S = 2.0  # SOG/COG are reported once the disparity filter has run this long
+MAX_DETECT_INTERVAL_S = 0.5  # slow cameras detect more often than every k-th pair (1 fps: every pair)
 MIN_COURSE_KN = 0.5  # below this speed the course is unknown (None)
 
 
@@ -132,7 +133,7 @@ class Pipeline:
         self._last_t_ns = t_ns
         self._since_detect += 1 + skipped
         boxes = None
-        if self._since_detect >= self.cfg.detect_every:
+        if self._since_detect >= min(self.cfg.detect_every, max(1, int(MAX_DETECT_INTERVAL_S * self.fps))):
             self._since_detect = 0
             self.counters.detections += 1
             boxes = [self._rect_box(b.x0, b.y0, b.x1, b.y1) for b in self.detector.detect(left)]
