@@ -140,6 +140,13 @@ def follow(previous: np.ndarray, current: np.ndarray) -> tuple[float, float, flo
     return ix - rx + fx, iy - ry + fy, float(cost[iy, ix]) / previous.size
 
 
+def _median(values) -> float:
+    """Median of a short sequence (sorted(); np.median's overhead is ~20 us on a handful of values)."""
+    v = sorted(values)
+    n = len(v)
+    return float(v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2]))
+
+
 def _vertex(cm: float, c0: float, cp: float) -> float | None:
     den = 2.0 * (float(cm) - 2.0 * float(c0) + float(cp))
     return None if den <= 0.0 else (float(cm) - float(cp)) / den
@@ -315,7 +322,7 @@ class TrackPoint:
         predicted column's fraction left out by the search region's whole-pixel centre."""
         dx, dy, cost = found
         if len(self.follow_costs) >= 5:
-            typical = float(np.median(np.fromiter(self.follow_costs, float)))
+            typical = _median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
                 return True
         return len(self.columns) >= 3 and math.hypot(dx - offset_px, dy) > FOLLOW_GATE_PX
@@ -355,7 +362,7 @@ class TrackPoint:
         if len(self.match_costs) < 5:
             return False
         n2 = float(self.s.window**2) ** 2  # ZSSD costs are N sum D^2 - (sum D)^2: N^2 x the variance
-        typical = float(np.median(np.fromiter(self.match_costs, float)))
+        typical = _median(self.match_costs)
         return cost > MIXED_COST_FACTOR * typical + MIXED_COST_FLOOR_DN2 * n2
 
     def _fit_column(self) -> None:
@@ -363,10 +370,17 @@ class TrackPoint:
         self.columns.append((self.frame, self.u))
         if len(self.columns) < 3:
             return
-        t = np.array([c[0] for c in self.columns], float)
-        u = np.array([c[1] for c in self.columns])
-        slope, intercept = np.polyfit(t - t[-1], u, 1)
-        rate = float(slope) * self.s.fps
+        # least squares in plain Python: a handful of points, and np.polyfit costs 40 us a call
+        t_last = self.columns[-1][0]
+        n = len(self.columns)
+        st = sum(c[0] - t_last for c in self.columns)
+        su = sum(c[1] for c in self.columns)
+        stt = sum((c[0] - t_last) ** 2 for c in self.columns)
+        stu = sum((c[0] - t_last) * c[1] for c in self.columns)
+        den = n * stt - st * st
+        slope = (n * stu - st * su) / den if den else 0.0
+        intercept = (su - slope * st) / n
+        rate = slope * self.s.fps
         if self.disparity is not None and self.disparity > 0 and self.s.baseline_m > 0:
             limit = self.disparity * MAX_SHIP_SPEED_MPS / self.s.baseline_m  # |u'| <= f v / Z = d v / L_B
             rate = min(max(rate, -limit), limit)
@@ -393,8 +407,10 @@ class TrackPoint:
         (differences remove the slow trend of an approaching ship)."""
         if len(self.recent) < NOISE_WINDOW // 2:
             return None
-        diff = np.diff(np.fromiter(self.recent, float))
-        return float(1.4826 * np.median(np.abs(diff - np.median(diff))) / math.sqrt(2.0))
+        r = list(self.recent)
+        diff = [b - a for a, b in zip(r, r[1:], strict=False)]
+        centre = _median(diff)
+        return 1.4826 * _median([abs(x - centre) for x in diff]) / math.sqrt(2.0)
 
     def _adapt_noise(self) -> None:
         """Move the Kalman design one rung up or down the noise ladder when the scatter says so."""
