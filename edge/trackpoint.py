@@ -133,11 +133,26 @@ def follow(previous: np.ndarray, current: np.ndarray) -> tuple[float, float, flo
     ry, rx = (cost.shape[0] - 1) // 2, (cost.shape[1] - 1) // 2
     if not (0 < ix < cost.shape[1] - 1 and 0 < iy < cost.shape[0] - 1):
         return None
-    fx = _vertex(cost[iy, ix - 1], cost[iy, ix], cost[iy, ix + 1])
-    fy = _vertex(cost[iy - 1, ix], cost[iy, ix], cost[iy + 1, ix])
-    if fx is None or fy is None:
+    offset = _vertex_2d(cost[iy - 1:iy + 2, ix - 1:ix + 2].astype(np.float64))
+    if offset is None:
         return None
-    return ix - rx + fx, iy - ry + fy, float(cost[iy, ix]) / previous.size
+    return ix - rx + offset[0], iy - ry + offset[1], float(cost[iy, ix]) / previous.size
+
+
+def _vertex_2d(c: np.ndarray) -> tuple[float, float] | None:
+    """Minimum of the quadratic through a 3 x 3 cost neighbourhood (gradient and Hessian by central
+    differences, cross term included: fitting x and y separately biases y when the texture's
+    correlation is tilted and x has a fraction). None unless it is a minimum within half a pixel."""
+    gx, gy = 0.5 * (c[1, 2] - c[1, 0]), 0.5 * (c[2, 1] - c[0, 1])
+    hxx, hyy = c[1, 2] - 2 * c[1, 1] + c[1, 0], c[2, 1] - 2 * c[1, 1] + c[0, 1]
+    hxy = 0.25 * (c[2, 2] - c[2, 0] - c[0, 2] + c[0, 0])
+    det = hxx * hyy - hxy * hxy
+    if hxx <= 0 or det <= 0:
+        return None
+    dx, dy = (-hyy * gx + hxy * gy) / det, (hxy * gx - hxx * gy) / det
+    if abs(dx) > 0.75 or abs(dy) > 0.75:
+        return None
+    return float(dx), float(dy)
 
 
 def _median(values) -> float:
@@ -145,11 +160,6 @@ def _median(values) -> float:
     v = sorted(values)
     n = len(v)
     return float(v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2]))
-
-
-def _vertex(cm: float, c0: float, cp: float) -> float | None:
-    den = 2.0 * (float(cm) - 2.0 * float(c0) + float(cp))
-    return None if den <= 0.0 else (float(cm) - float(cp)) / den
 
 
 class TrackPoint:
@@ -340,15 +350,18 @@ class TrackPoint:
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
         # straddles the ship's outline); its appearance changes slowly, so refresh it now and then
         self.template_age += 1
-        worse = len(self.follow_costs) >= 2 and self.follow_costs[-1] > 2.0 * min(self.follow_costs)
+        costs = self.follow_costs
+        worse = len(costs) >= 2 and costs[-1] > 2.0 * min(costs)
         if self.template is None or self.template_age >= TEMPLATE_REFRESH_S * self.s.fps or worse:
             self._take_template(left, rect)
         m = self.match = self.match_at(left, right, rect, self.u, self.v, self.predicted_disparity())
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)
-        if m.valid and not self.accepted and self.kalman is not None and self.kalman.running:
-            self.rejects += 1  # a match the track refuses: mixed window, or the point is on something else
-            if self.rejects >= REJECTS_TO_SEARCH:
+        if not self.accepted and self.kalman is not None and self.kalman.running:
+            # a valid match refused (or mixed): the point is on something else; no match at all for
+            # twice as long: it no longer gives this ship's range either
+            self.rejects += 2 if m.valid else 1
+            if self.rejects >= 2 * REJECTS_TO_SEARCH:
                 self.searching = True
         else:
             self.rejects = 0

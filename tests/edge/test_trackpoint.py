@@ -1,0 +1,103 @@
+"""TrackPoint on synthetic stereo pairs with known motion and disparity; reference points; follow()."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from edge.core.camera import PinholeCamera, StereoRig
+from edge.core.rectify import Rectifier
+from edge.trackpoint import Designs, PointSettings, TrackPoint, _median, follow, reference_points
+
+W, H = 320, 160
+
+
+def _texture(seed: int, h: int, w: int, sigma: float = 1.2) -> np.ndarray:
+    """Band-limited random texture (float, ~0..255): sub-pixel shifts by interpolation stay honest."""
+    rng = np.random.default_rng(seed)
+    t = cv2.GaussianBlur(rng.normal(0.0, 1.0, (h, w)), (0, 0), sigma)
+    return 128.0 + 60.0 * t / t.std()
+
+
+def _shifted(tex: np.ndarray, dx: float, dy: float = 0.0) -> np.ndarray:
+    """tex moved right by dx, down by dy (bicubic on a band-limited texture), as uint8."""
+    m = np.float32([[1, 0, dx], [0, 1, dy]])
+    out = cv2.warpAffine(tex.astype(np.float32), m, (tex.shape[1], tex.shape[0]), flags=cv2.INTER_CUBIC,
+                         borderMode=cv2.BORDER_REFLECT)
+    return np.clip(np.round(out), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize(("dx", "dy"), [(0.0, 0.0), (0.3, -0.2), (-1.45, 0.6), (2.7, 1.1)])
+def test_follow_recovers_a_sub_pixel_shift(dx: float, dy: float) -> None:
+    tex = _texture(3, 60, 60)
+    prev = _shifted(tex, 0.0)[20:35, 20:35]  # 15 x 15 template centred at (27, 27)
+    region = _shifted(tex, dx, dy)[16:39, 16:39]  # 23 x 23 search region, same centre
+    got = follow(prev, region)
+    assert got is not None
+    assert got[0] == pytest.approx(dx, abs=0.08) and got[1] == pytest.approx(dy, abs=0.08)
+
+
+def test_reference_points_pick_texture_in_the_upper_part_and_spread_out() -> None:
+    patch = np.full((60, 100), 100, np.uint8)
+    patch[12:24, 30:60] = _shifted(_texture(5, 12, 30), 0.0)  # textured superstructure, top of the box
+    patch[40:50, 10:90] = 60  # flat dark hull below
+    pts = reference_points(patch, (10, 10, 90, 50), (0, 0), 9, count=4)
+    assert 30 <= pts[0][0] < 60 and 12 <= pts[0][1] < 24
+    assert all(10 <= v < 10 + 0.6 * 40 + 1 for _, v in pts)  # only the upper 60 % of the box
+    for i, a in enumerate(pts):
+        for b in pts[i + 1:]:
+            assert max(abs(a[0] - b[0]), abs(a[1] - b[1])) > 4  # at least half a window apart
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-1e3, 1e3), min_size=1, max_size=25))
+def test_median_equals_numpy(values: list[float]) -> None:
+    assert _median(values) == pytest.approx(float(np.median(values)))
+
+
+def _rig() -> StereoRig:
+    cam = PinholeCamera(900.0, 900.0, (W - 1) / 2, (H - 1) / 2)
+    return StereoRig(8.0, W, H, cam, cam)
+
+
+def test_point_follows_a_moving_ship_and_measures_its_disparity() -> None:
+    """A textured 'hull' at disparity 12.4 px (Z = f B / d) moving 0.6 px/frame right."""
+    rect = Rectifier(_rig())
+    tex = _texture(11, H, W + 40)
+    d_true, speed = 12.4, 0.6
+    settings_ = PointSettings(fps=10.0, window=15, max_disparity=40, baseline_m=8.0, focal_px=900.0)
+    point = TrackPoint(150.0, 80.0, settings_, Designs(settings_))
+    for k in range(40):
+        left = _shifted(tex, speed * k)[:, 20:W + 20]
+        right = _shifted(tex, speed * k - d_true)[:, 20:W + 20]
+        rng = np.random.default_rng(k)
+        left = np.clip(left + rng.normal(0, 1, left.shape), 0, 255).astype(np.uint8)
+        right = np.clip(right + rng.normal(0, 1, right.shape), 0, 255).astype(np.uint8)
+        assert point.step(left, right, rect)
+    assert not point.searching
+    assert point.u == pytest.approx(150.0 + speed * 39, abs=0.3)  # followed the texture
+    assert point.v == pytest.approx(80.0, abs=0.3)
+    assert point.disparity == pytest.approx(d_true, abs=0.05)
+    assert point.u_rate_pxps == pytest.approx(speed * 10.0, abs=0.5)
+    assert point.sigma_px < 0.1 and math.isfinite(point.sigma_px)
+
+
+def test_point_refuses_a_jump_to_another_range_and_searches() -> None:
+    """After 20 frames at d = 10, the right image suddenly says d = 16 (a ship in front): the filter
+    refuses it, the point turns to searching instead of adopting the other range."""
+    rect = Rectifier(_rig())
+    tex = _texture(12, H, W + 40)
+    settings_ = PointSettings(fps=10.0, window=15, max_disparity=40, baseline_m=8.0, focal_px=900.0)
+    point = TrackPoint(150.0, 80.0, settings_, Designs(settings_))
+    left = _shifted(tex, 0.0)[:, 20:W + 20]
+    for k in range(30):
+        d = 10.0 if k < 20 else 16.0
+        right = _shifted(tex, -d)[:, 20:W + 20]
+        point.step(left, right, rect, candidates=lambda: [])
+    assert point.searching
+    assert point.predicted_disparity() == pytest.approx(10.0, abs=0.1)
