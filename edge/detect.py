@@ -49,7 +49,8 @@ MIN_HEIGHT_RATIO = 0.08  # a ship's silhouette is at least this tall for its len
 MIN_HEIGHT_M = 2.0  # a 10 m boat stands 2.2 m above the water; a wave band at 500 m is ~1 m
 MIN_HEIGHT_PX = 2.0  # and at least this many full-resolution rows (a 70 m coaster at 3 km: 3 rows)
 MIN_LENGTH_SHARE = 0.7  # a blob may look this much shorter than the ship (threshold eats faint ends)
-BACKGROUND_STEP = 2  # every n-th column enters the row medians
+BACKGROUND_STEP = 2  # every n-th column (at least) enters the row medians and the thresholds
+BACKGROUND_COLUMNS = 160  # ... and no more columns than this (the medians are the detector's main cost)
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,6 +91,7 @@ class Detector:
                  min_ship_px: int = 20) -> None:
         self.rect = rectifier
         self.site_height_m = site_height_m
+        self.dip_rad = horizon_dip_rad(site_height_m)
         self.decimation = max(1, int(decimation))
         self.min_ship_px = int(min_ship_px)
         rig = rectifier.rig
@@ -148,9 +150,13 @@ class Detector:
         hs, ws = small.shape
         horizon = self._refine_horizon(small)
         shifts = self._shifts(horizon)
-        rows = np.clip(np.arange(hs)[:, None] + shifts[None, :], 0, hs - 1)
-        flat = small[rows, np.arange(ws)[None, :]].astype(np.int16)  # horizon-level rows
-        background = np.median(flat[:, ::BACKGROUND_STEP], axis=1).astype(np.int16)
+        if shifts.any():  # horizon-level rows (a rolled camera tilts the horizon)
+            rows = np.clip(np.arange(hs)[:, None] + shifts[None, :], 0, hs - 1)
+            flat = small[rows, np.arange(ws)[None, :]].astype(np.int16)
+        else:
+            flat = small.astype(np.int16)
+        step = max(BACKGROUND_STEP, ws // BACKGROUND_COLUMNS)
+        background = np.median(flat[:, ::step], axis=1).astype(np.int16)
         # signed residual, averaged over a small box: noise drops by its sqrt(area), a solid hull does not
         box = (max(3, (self.min_ship_px // (4 * dec)) | 1), 3 if dec == 1 else 1)
         residual = np.abs(cv2.blur((flat - background[:, None]).astype(np.float32), box))
@@ -185,12 +191,12 @@ class Detector:
         """Threshold per row: median + k MAD of |residual| over the row band (sky above, sea bands below)."""
         hs = residual.shape[0]
         levels = np.empty(hs, np.float32)
-        sample = residual[:, ::BACKGROUND_STEP]
+        sample = residual[::2, ::max(BACKGROUND_STEP, residual.shape[1] // BACKGROUND_COLUMNS)]
         top = int(np.clip(horizon_row, 1, hs - 1))
-        bands = [np.arange(0, top)] + list(np.array_split(np.arange(top, hs), ROW_BANDS))
-        for band in bands:
-            if len(band):
-                levels[band] = _robust_level(sample[band])
+        split = np.array_split(np.arange(top, hs), ROW_BANDS)
+        bands = [(0, top)] + [(b[0], b[-1] + 1) for b in split if len(b)]
+        for r0, r1 in bands:
+            levels[r0:r1] = _robust_level(sample[r0 // 2:(r1 + 1) // 2])
         return levels
 
     def _plausible(self, blob: Blob, horizon: np.ndarray) -> bool:
@@ -204,9 +210,12 @@ class Detector:
         h_row = min(h_row, float(np.median(self.horizon_raw[np.clip(cols * dec, 0, self.width - 1)])))
         if blob.y1 < h_row - max(2.0 * dec, 0.1 * blob.height):
             return False
-        # metric height at the sea range of the waterline: crests and troughs are flat streaks
-        u, v = self.rect.raw_to_rect(np.array([0.5 * (blob.x0 + blob.x1), blob.y1 - 0.5]), 0)
-        range_m = sea_range_at(self.rect, self.site_height_m, u, v)
+        # metric height at the sea range of the waterline: crests and troughs are flat streaks. The
+        # waterline's depression is the dip plus its rows below the predicted horizon (small angles:
+        # cheaper than mapping every candidate through the lens model, and as good for this test)
+        centre = min(self.width - 1, max(0, (blob.x0 + blob.x1) // 2))
+        depression = self.dip_rad + (blob.y1 - 0.5 - self.horizon_raw[centre]) / self.rect.f_px
+        range_m = float(sea_range_m(depression, self.site_height_m))
         return blob.height * range_m / self.rect.f_px >= MIN_HEIGHT_M
 
 
