@@ -13,8 +13,8 @@ from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
 from edge.pipeline import Pipeline
 from edge.replay import recording_calibration
-from edge.trackpoint import Designs, PointSettings, TrackPoint
 from edge.tracking import TableSettings, TrackTable, _overlap
+from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 W, H, F, B, HEIGHT = 400, 300, 900.0, 8.0, 25.0
 
