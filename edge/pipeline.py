@@ -149,7 +149,8 @@ class Pipeline:
 
     # ------------------------------------------------------------ fixes
     def _fixes(self, tracks: list[Track], t_ns: int) -> list[ShipFix]:
-        live = [t for t in tracks if t.point.disparity is not None and t.point.disparity > 0.0]
+        live = [t for t in tracks if t.point.disparity is not None and t.point.disparity > 0.0
+                and (t.point.usable or t.point.scatter_px() is None)]
         if not live:
             return []
         f, b = self.rect.f_px, self.rig.baseline_m

@@ -39,6 +39,7 @@ from edge.fix import TrackStatus
 from edge.trackpoint import Designs, PointSettings, TrackPoint, reference_points
 
 MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
+BIRTH_SLOPE_SHARE = 0.6  # a candidate whose disparity grows this fast down its rows is sea: no birth
 VERTICAL_SHARE = 0.25  # a ship's disparity changes by less than this share of the sea's per row
 SLOPE_ROWS = 4  # rows above and below the point for that test
 ROW_SIGMA_PX = 0.5  # row uncertainty of the point for its height above the sea
@@ -189,6 +190,9 @@ class TrackTable:
         m = point.match
         if m is not None and m.valid and not self._on_the_sea(m.disparity_px, box):
             return
+        slope = self._slope(point, left, right) if m is not None and m.valid else None
+        if slope is not None and slope > BIRTH_SLOPE_SHARE * self._sea_slope():
+            return  # plainly a patch of sea (see `_standing`): not worth a track
         self.tracks.append(Track(self.next_id, t_ns, point, np.asarray(box, float), self.s.confirm_m))
         self.next_id += 1
         self.births += 1
@@ -227,11 +231,14 @@ class TrackTable:
         side is vertical and keeps one disparity; so the disparity measured above and below the
         point must change by much less than L_B / h per row; (2) the triangulated point must
         stand clear of the sea below it."""
-        if not track.slopes:
+        if not track.slopes or not track.point.usable:
             return False
-        sea_slope = self.rect.rig.baseline_m / max(self.site_height_m, 1.0)
-        vertical = abs(float(np.median(track.slopes))) <= VERTICAL_SHARE * sea_slope
+        vertical = abs(float(np.median(track.slopes))) <= VERTICAL_SHARE * self._sea_slope()
         return vertical and self._above_sea(track.point)
+
+    def _sea_slope(self) -> float:
+        """Disparity growth per row of the sea below the horizon: L_B / h (flat-sea approximation)."""
+        return self.rect.rig.baseline_m / max(self.site_height_m, 1.0)
 
     def _slope(self, p: TrackPoint, left: np.ndarray, right: np.ndarray) -> float | None:
         """Disparity change per row across the point: matches SLOPE_ROWS above and below it."""
@@ -272,6 +279,8 @@ class TrackTable:
             elif hits >= s.confirm_n and track.point.disparity is not None and self._standing(track):
                 track.status = TrackStatus.TRACKING
             return
+        if not track.point.usable and track.point.scatter_px() is not None:
+            track.last_measured_ns = min(track.last_measured_ns, t_ns - int(s.coast_s * 1e9) - 1)
         stale = (t_ns - track.last_measured_ns > s.coast_s * 1e9
                  or t_ns - track.last_confirmed_ns > s.unconfirmed_s * 1e9)
         if track.status is TrackStatus.TRACKING and stale:

@@ -39,7 +39,9 @@ SUBPIXELS = ("cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
 UPPER_SHARE = 0.6  # the reference point is searched in this top share of the ship's box
 COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
-NOISE_LADDER_PX = (0.04, 0.08, 0.16, 0.32, 0.64)  # disparity-noise levels of the Kalman designs
+NOISE_LADDER_PX = (0.04, 0.08, 0.16, 0.32)  # disparity-noise levels of the Kalman designs
+MAX_USABLE_NOISE_PX = 0.4  # a point scattering more than this gives no usable range (stays Q / turns L)
+MIN_SCATTER_SAMPLES = 6  # raw disparities before the scatter counts
 NOISE_WINDOW = 20  # recent raw disparities kept for the track's own noise estimate
 REJECTS_TO_SEARCH = 5  # valid matches in a row that the filter's gate refuses: the point is on something else
 OCCLUSION_COST_FACTOR = 4.0  # a follow this much worse than the track's typical one: something in front
@@ -418,12 +420,18 @@ class TrackPoint:
     def scatter_px(self) -> float | None:
         """Robust noise of the recent raw disparities: MAD of successive differences / sqrt(2)
         (differences remove the slow trend of an approaching ship)."""
-        if len(self.recent) < NOISE_WINDOW // 2:
+        if len(self.recent) < MIN_SCATTER_SAMPLES:
             return None
         r = list(self.recent)
         diff = [b - a for a, b in zip(r, r[1:], strict=False)]
         centre = _median(diff)
         return 1.4826 * _median([abs(x - centre) for x in diff]) / math.sqrt(2.0)
+
+    @property
+    def usable(self) -> bool:
+        """Is the raw disparity known to be steady enough to range on?"""
+        scatter = self.scatter_px()
+        return scatter is not None and scatter <= MAX_USABLE_NOISE_PX
 
     def _adapt_noise(self) -> None:
         """Move the Kalman design one rung up or down the noise ladder when the scatter says so."""
