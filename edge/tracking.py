@@ -36,7 +36,8 @@ from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
 from edge.fix import TrackStatus
-from edge.trackpoint import Designs, PointSettings, TrackPoint, reference_points
+from edge.follow import reference_points
+from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
 BIRTH_SLOPE_SHARE = 0.6  # a candidate whose disparity grows this fast down its rows is sea: no birth

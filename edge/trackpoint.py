@@ -3,13 +3,11 @@
 Everything here works in rectified left-image pixels (`edge.core.rectify`):
 rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 
-- Reference point: where the window's summed squared horizontal gradient
-  (sum Ix^2, what sets the matcher's sigma, research note §1.4) is largest in
-  the upper part of the ship's box — the superstructure, the thesis's bridge,
-  mostly seen against the sky, so the window holds little sea at another range.
-- Left follow: the point is followed from pair to pair at sub-pixel precision
-  (the thesis left it at whole pixels), around the position its image-motion
-  filter predicts.
+- Reference point (`edge.follow.reference_points`): the best-textured window in
+  the upper part of the ship's box — the superstructure, the thesis's bridge.
+- Left follow (`edge.follow.follow`): the point is followed from pair to pair at
+  sub-pixel precision (the thesis left it at whole pixels) against a template
+  kept for up to a second, around the position its image motion predicts.
 - Right match: `edge.core.match_point` on two rectified patches of the same
   rows and columns, the search narrowed to the disparity filter's prediction
   once it runs (a full search at birth and after a restart).
@@ -27,17 +25,16 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalman, KalmanDesign, design_kalman
 from edge.core.match import Match, match_point
 from edge.core.rectify import Rectifier
+from edge.follow import follow, median
 
 SUBPIXELS = ("cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
-UPPER_SHARE = 0.6  # the reference point is searched in this top share of the ship's box
 COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
 NOISE_LADDER_PX = (0.04, 0.08, 0.16, 0.32)  # disparity-noise levels of the Kalman designs
 MAX_USABLE_NOISE_PX = 0.4  # a point scattering more than this gives no usable range (stays Q / turns L)
@@ -95,73 +92,6 @@ class Designs:
             self._disparity[sigma_meas_px] = design_kalman(s.fps, sigma_meas_px, s.sigma_accel_pxps2,
                                                            gate_sigma=s.gate_sigma, reacquire_s=s.reacquire_s)
         return self._disparity[sigma_meas_px]
-
-
-def reference_points(patch: np.ndarray, box: tuple[int, int, int, int], origin: tuple[int, int],
-                     window: int, count: int = 1) -> list[tuple[float, float]]:
-    """The best-textured window centres in the upper part of `box` (rectified px, [x0, x1) x [y0, y1)),
-    best first, at least half a window apart.
-
-    `patch` holds the rectified left image from `origin` (x, y) and covers the box plus half a
-    window on each side. Ties go to the first (top-left) maximum, so the choice is deterministic."""
-    x0, y0, x1, y1 = box
-    ox, oy = origin
-    g = patch.astype(np.float32)
-    gx2 = np.zeros_like(g)
-    gx2[:, 1:-1] = (g[:, 2:] - g[:, :-2]) ** 2
-    energy = cv2.boxFilter(gx2, -1, (window, window), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    r1 = y0 + max(1, int(math.ceil(UPPER_SHARE * (y1 - y0))))
-    sub = energy[y0 - oy:r1 - oy, x0 - ox:x1 - ox].copy()
-    out = []
-    for _ in range(count):
-        iy, ix = np.unravel_index(int(np.argmax(sub)), sub.shape)
-        if out and sub[iy, ix] <= 0.0:
-            break
-        out.append((float(x0 + ix), float(y0 + iy)))
-        h = window // 2
-        sub[max(0, iy - h):iy + h + 1, max(0, ix - h):ix + h + 1] = -1.0
-    return out
-
-
-def follow(previous: np.ndarray, current: np.ndarray) -> tuple[float, float, float] | None:
-    """Sub-pixel shift (dx, dy) of the window `previous` inside the larger `current` region,
-    relative to the centre of `current`, and the SSD per pixel at the best whole-pixel shift;
-    None at the search edge or for a flat cost surface.
-
-    Stand-in for the core's sub-pixel point tracker (issue 4) until it lands: SSD by
-    cv2.matchTemplate and a 3-point parabola (eq. 5.2) along each axis."""
-    cost = cv2.matchTemplate(current, previous, cv2.TM_SQDIFF)
-    iy, ix = np.unravel_index(int(np.argmin(cost)), cost.shape)
-    ry, rx = (cost.shape[0] - 1) // 2, (cost.shape[1] - 1) // 2
-    if not (0 < ix < cost.shape[1] - 1 and 0 < iy < cost.shape[0] - 1):
-        return None
-    offset = _vertex_2d(cost[iy - 1:iy + 2, ix - 1:ix + 2].astype(np.float64))
-    if offset is None:
-        return None
-    return ix - rx + offset[0], iy - ry + offset[1], float(cost[iy, ix]) / previous.size
-
-
-def _vertex_2d(c: np.ndarray) -> tuple[float, float] | None:
-    """Minimum of the quadratic through a 3 x 3 cost neighbourhood (gradient and Hessian by central
-    differences, cross term included: fitting x and y separately biases y when the texture's
-    correlation is tilted and x has a fraction). None unless it is a minimum within half a pixel."""
-    gx, gy = 0.5 * (c[1, 2] - c[1, 0]), 0.5 * (c[2, 1] - c[0, 1])
-    hxx, hyy = c[1, 2] - 2 * c[1, 1] + c[1, 0], c[2, 1] - 2 * c[1, 1] + c[0, 1]
-    hxy = 0.25 * (c[2, 2] - c[2, 0] - c[0, 2] + c[0, 0])
-    det = hxx * hyy - hxy * hxy
-    if hxx <= 0 or det <= 0:
-        return None
-    dx, dy = (-hyy * gx + hxy * gy) / det, (hxy * gx - hxx * gy) / det
-    if abs(dx) > 0.75 or abs(dy) > 0.75:
-        return None
-    return float(dx), float(dy)
-
-
-def _median(values) -> float:
-    """Median of a short sequence (sorted(); np.median's overhead is ~20 us on a handful of values)."""
-    v = sorted(values)
-    n = len(v)
-    return float(v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2]))
 
 
 class TrackPoint:
@@ -334,7 +264,7 @@ class TrackPoint:
         predicted column's fraction left out by the search region's whole-pixel centre."""
         dx, dy, cost = found
         if len(self.follow_costs) >= 5:
-            typical = _median(self.follow_costs)
+            typical = median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
                 return True
         return len(self.columns) >= 3 and math.hypot(dx - offset_px, dy) > FOLLOW_GATE_PX
@@ -377,7 +307,7 @@ class TrackPoint:
         if len(self.match_costs) < 5:
             return False
         n2 = float(self.s.window**2) ** 2  # ZSSD costs are N sum D^2 - (sum D)^2: N^2 x the variance
-        typical = _median(self.match_costs)
+        typical = median(self.match_costs)
         return cost > MIXED_COST_FACTOR * typical + MIXED_COST_FLOOR_DN2 * n2
 
     def _fit_column(self) -> None:
@@ -424,8 +354,8 @@ class TrackPoint:
             return None
         r = list(self.recent)
         diff = [b - a for a, b in zip(r, r[1:], strict=False)]
-        centre = _median(diff)
-        return 1.4826 * _median([abs(x - centre) for x in diff]) / math.sqrt(2.0)
+        centre = median(diff)
+        return 1.4826 * median([abs(x - centre) for x in diff]) / math.sqrt(2.0)
 
     @property
     def usable(self) -> bool:

@@ -1,4 +1,4 @@
-"""TrackPoint on synthetic stereo pairs with known motion and disparity; reference points; follow()."""
+"""TrackPoint on synthetic stereo pairs with known motion and disparity."""
 
 from __future__ import annotations
 
@@ -7,12 +7,10 @@ import math
 import cv2
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
-from edge.trackpoint import Designs, PointSettings, TrackPoint, _median, follow, reference_points
+from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 W, H = 320, 160
 
@@ -30,34 +28,6 @@ def _shifted(tex: np.ndarray, dx: float, dy: float = 0.0) -> np.ndarray:
     out = cv2.warpAffine(tex.astype(np.float32), m, (tex.shape[1], tex.shape[0]), flags=cv2.INTER_CUBIC,
                          borderMode=cv2.BORDER_REFLECT)
     return np.clip(np.round(out), 0, 255).astype(np.uint8)
-
-
-@pytest.mark.parametrize(("dx", "dy"), [(0.0, 0.0), (0.3, -0.2), (-1.45, 0.6), (2.7, 1.1)])
-def test_follow_recovers_a_sub_pixel_shift(dx: float, dy: float) -> None:
-    tex = _texture(3, 60, 60)
-    prev = _shifted(tex, 0.0)[20:35, 20:35]  # 15 x 15 template centred at (27, 27)
-    region = _shifted(tex, dx, dy)[16:39, 16:39]  # 23 x 23 search region, same centre
-    got = follow(prev, region)
-    assert got is not None
-    assert got[0] == pytest.approx(dx, abs=0.08) and got[1] == pytest.approx(dy, abs=0.08)
-
-
-def test_reference_points_pick_texture_in_the_upper_part_and_spread_out() -> None:
-    patch = np.full((60, 100), 100, np.uint8)
-    patch[12:24, 30:60] = _shifted(_texture(5, 12, 30), 0.0)  # textured superstructure, top of the box
-    patch[40:50, 10:90] = 60  # flat dark hull below
-    pts = reference_points(patch, (10, 10, 90, 50), (0, 0), 9, count=4)
-    assert 30 <= pts[0][0] < 60 and 12 <= pts[0][1] < 24
-    assert all(10 <= v < 10 + 0.6 * 40 + 1 for _, v in pts)  # only the upper 60 % of the box
-    for i, a in enumerate(pts):
-        for b in pts[i + 1:]:
-            assert max(abs(a[0] - b[0]), abs(a[1] - b[1])) > 4  # at least half a window apart
-
-
-@settings(max_examples=40, deadline=None)
-@given(st.lists(st.floats(-1e3, 1e3), min_size=1, max_size=25))
-def test_median_equals_numpy(values: list[float]) -> None:
-    assert _median(values) == pytest.approx(float(np.median(values)))
 
 
 def _rig() -> StereoRig:
