@@ -32,11 +32,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from edge.anchor import reference_points
 from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
 from edge.fix import TrackStatus
-from edge.follow import reference_points
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
@@ -121,6 +121,9 @@ class TrackTable:
         for track in self.tracks:
             candidates = lambda t=track: self._candidates(left, t.box)  # noqa: E731 (bound per track)
             alive = track.point.step(left, right, self.rect, skipped, candidates)
+            du, dv = track.point.jumped
+            if du or dv:  # the point moved to another part of the ship: the ship's box did not
+                track.box_rel -= np.array([du, dv, du, dv])
             if track.point.accepted:
                 track.last_measured_ns = t_ns
             if not alive:  # the point is gone for good: a tentative track ends, a confirmed one is lost

@@ -3,11 +3,15 @@
 Everything here works in rectified left-image pixels (`edge.core.rectify`):
 rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 
-- Reference point (`edge.follow.reference_points`): the best-textured window in
+- Reference point (`edge.anchor.reference_points`): the best-textured window in
   the upper part of the ship's box — the superstructure, the thesis's bridge.
-- Left follow (`edge.follow.follow`): the point is followed from pair to pair at
-  sub-pixel precision (the thesis left it at whole pixels) against a template
-  kept for up to a second, around the position its image motion predicts.
+- Left follow: the core's sub-pixel point tracker (`edge.core.track_point`,
+  ZSSD 2-D search with cancellation-free parabola fits here for speed) finds a
+  template kept for up to a second around the position the point's image motion
+  predicts (re-taking it every pair would add each pair's error to the point).
+  Where it finds no sure match (flat, ambiguous) the point is carried on its
+  motion for a few pairs; a match too bad or off the motion means something
+  passed in front, and the point is searched for (see `TrackPoint`).
 - Right match: `edge.core.match_point` on two rectified patches of the same
   rows and columns, the search narrowed to the disparity filter's prediction
   once it runs (a full search at birth and after a restart).
@@ -27,11 +31,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from edge.anchor import median
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalman, KalmanDesign, design_kalman
 from edge.core.match import Match, match_point
 from edge.core.rectify import Rectifier
-from edge.follow import follow, median
+from edge.core.refpoint import PointTrack, track_point
 
 SUBPIXELS = ("cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
@@ -48,6 +53,9 @@ MIXED_COST_FLOOR_DN2 = 10.0  # plus this residual variance (DN^2), so noise alon
 TEMPLATE_REFRESH_S = 1.0  # the followed template is re-taken this often (or when it matches 2x worse)
 MAX_SHIP_SPEED_MPS = 25.0  # ~50 kn: no ship's range changes faster
 MEMORY_S = 10.0  # a restarting filter must agree with the last estimate carried this far forward
+FOLLOW_MARGIN_PX = 5  # the core point tracker's margin beyond window and search (half-pixel passes)
+FOLLOW_MAX_SIGMA_PX = 1.0  # texture the follow needs in x and y (looser than for ranging)
+FOLLOW_FAILURES_TO_SEARCH = 5  # pairs without a sure follow before the point is searched for
 FOLLOW_GATE_PX = 1.5  # a follow this far from the predicted motion jumped to something else
 
 
@@ -70,6 +78,7 @@ class PointSettings:
     sigma_accel_pxps2: float = 0.05  # the Kalman's white acceleration (max d'' of a ship)
     search_radius_px: int = 4  # disparity search around the prediction
     follow_radius_px: int = 4  # left-follow search around the predicted position
+    follow_subpixel: str = "parabola"  # the core point tracker's sub-pixel method
     baseline_m: float = 0.0  # with focal_px: bounds the image motion and disparity rates (0: no bound)
     focal_px: float = 0.0
 
@@ -110,13 +119,17 @@ class TrackPoint:
         self.designs = designs
         self.u, self.v = u, v
         self.template: np.ndarray | None = None  # window around template_at in the last image
-        self.template_at = (0, 0, 0.0, 0.0)  # its centre pixel, and the point (u, v) then
+        self.template_at = (0, 0, 0.0, 0.0)  # its patch origin, and the point (u, v) then
+        self.template_reach = 0.0  # px the point may move before the patch is too small
         self.template_age = 0  # pairs since it was taken
+        self.last_left: np.ndarray | None = None
         self.match: Match | None = None  # this pair's right match (None: not attempted)
         self.raw_disparity: float | None = None
         self.accepted = False  # this pair's measurement went into the filter
         self.searching = False
         self.search_frames = 0
+        self.follow_failures = 0  # pairs in a row the core tracker found no sure match
+        self.jumped = (0.0, 0.0)  # (du, dv) of a move to another point of the ship in this pair
         self.rejects = 0
         self.frame = 0  # pairs seen (and skipped): the time axis of the column fit
         self.u_filtered: float | None = None
@@ -160,19 +173,23 @@ class TrackPoint:
             self._coast()
         self.frame += 1
         self.match = None
+        self.jumped = (0.0, 0.0)
         if not self.searching and self.template is not None:
-            h, r = self.s.window // 2, self.s.follow_radius_px
             pu = self.u + self.u_rate_pxps / self.s.fps
-            cu, cv = int(round(pu)), int(round(self.v))
-            region = rect.patch(left, 0, cu - h - r, cv - h - r, 2 * (h + r) + 1, 2 * (h + r) + 1)
-            found = follow(self.template, region)
-            if found is None or self._off_track(found, pu - cu):
+            if abs(pu - self.template_at[2]) > self.template_reach:
+                self._take_template(self.last_left, rect)  # moved too far for the kept patch
+            found = self._follow(left, rect, pu)
+            if found is None:  # no sure match (flat, ambiguous): carry the point on its motion
+                self.follow_failures += 1
+                self.u = pu
+                if self.follow_failures > FOLLOW_FAILURES_TO_SEARCH:
+                    self.searching = True
+            elif self._off_track(found, pu):
                 self.searching = True
             else:
-                self.follow_costs.append(found[2])
-                tu, tv, tx, ty = self.template_at  # the template's centre pixel moved by the shift
-                self.u = tx + cu + found[0] - tu
-                self.v = ty + cv + found[1] - tv
+                self.follow_failures = 0
+                self.follow_costs.append(found.cost / self.s.window**4)  # ZSSD -> DN^2 per pixel
+                self.u, self.v = found.x_px + self.template_at[0], found.y_px + self.template_at[1]
         if self.searching:
             for u, v in candidates() if candidates is not None else []:
                 if self._try(u, v, left, right, rect):
@@ -197,8 +214,9 @@ class TrackPoint:
             tolerance = self.s.gate_sigma * math.hypot(prediction[1], self.noise_px)
             if not (m.valid and abs(m.disparity_px - prediction[0]) <= tolerance):
                 return False
+        self.jumped = (u - self.u, v - self.v)
         self.u, self.v = u, v
-        self.searching, self.search_frames, self.rejects = False, 0, 0
+        self.searching, self.search_frames, self.rejects, self.follow_failures = False, 0, 0, 0
         self.follow_costs.clear()
         self.columns.clear()  # another point of the ship: keep the rate, restart the line fit
         self._take_template(left, rect)
@@ -258,26 +276,46 @@ class TrackPoint:
         self.u += self.u_rate_pxps / self.s.fps
         self._filter(None)
 
-    def _off_track(self, found: tuple[float, float, float], offset_px: float) -> bool:
+    def _follow(self, left: np.ndarray, rect: Rectifier, pu: float) -> PointTrack | None:
+        """The kept template's point found in this pair by the core's sub-pixel point tracker
+        (`edge.core.track_point`), searched around the predicted column `pu`."""
+        x0, y0, tx, ty = self.template_at
+        h_patch, w_patch = self.template.shape
+        current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
+        found = track_point(self.template, current, tx - x0, ty - y0, window=self.s.window,
+                            search_radius=self.s.follow_radius_px, predicted_dx=pu - tx,
+                            subpixel=self.s.follow_subpixel, noise_dn=self.s.noise_dn,
+                            max_sigma_px=FOLLOW_MAX_SIGMA_PX)
+        return found if found.valid else None
+
+    def _off_track(self, found: PointTrack, pu: float) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
-        track's own motion puts it (the match jumped to another object). `offset_px` is the
-        predicted column's fraction left out by the search region's whole-pixel centre."""
-        dx, dy, cost = found
+        track's own motion puts it (the match jumped to another object)."""
+        cost = found.cost / self.s.window**4
         if len(self.follow_costs) >= 5:
             typical = median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
                 return True
-        return len(self.columns) >= 3 and math.hypot(dx - offset_px, dy) > FOLLOW_GATE_PX
+        x0, y0, _, _ = self.template_at
+        jump = math.hypot(found.x_px + x0 - pu, found.y_px + y0 - self.v)
+        return len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
 
     def _take_template(self, left: np.ndarray, rect: Rectifier) -> None:
-        h = self.s.window // 2
+        """Keep the rectified patch around the point: the core tracker searches it again in later
+        pairs, so it spans the window, the search square, the tracker's margins and the motion
+        expected while the template is kept."""
+        h, r = self.s.window // 2, self.s.follow_radius_px
         ui, vi = int(round(self.u)), int(round(self.v))
-        self.template = rect.patch(left, 0, ui - h, vi - h, 2 * h + 1, 2 * h + 1).copy()
-        self.template_at = (ui, vi, self.u, self.v)
+        motion = int(math.ceil(abs(self.u_rate_pxps) * TEMPLATE_REFRESH_S)) + 2
+        mx, my = h + r + FOLLOW_MARGIN_PX + motion, h + r + FOLLOW_MARGIN_PX + 2
+        self.template = rect.patch(left, 0, ui - mx, vi - my, 2 * mx + 1, 2 * my + 1).copy()
+        self.template_at = (ui - mx, vi - my, self.u, self.v)  # patch origin, and the point then
+        self.template_reach = float(motion)
         self.template_age = 0
         self.follow_costs.clear()
 
     def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> None:
+        self.last_left = left
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
         # straddles the ship's outline); its appearance changes slowly, so refresh it now and then
