@@ -4,8 +4,9 @@
 gradient of the window (what sets the matcher's sigma, research note §1.4),
 best first and at least half a window apart. The upper part of the box is the
 superstructure, the thesis's bridge, mostly seen against the sky, so the window
-holds little sea at another range. `median` is a small-list median (np.median's
-per-call overhead is ~20 us, more than the work on a handful of values).
+holds little sea at another range. `median` and `line_fit` work on the few
+values a track keeps, in plain Python (np.median and np.polyfit cost 20-40 us a
+call, more than the work itself).
 """
 
 from __future__ import annotations
@@ -49,3 +50,16 @@ def median(values) -> float:
     v = sorted(values)
     n = len(v)
     return float(v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2]))
+
+
+def line_fit(points) -> tuple[float, float]:
+    """Least-squares line through (t, y) points: (y at the last t, slope per unit t)."""
+    t_last = points[-1][0]
+    n = len(points)
+    st = sum(p[0] - t_last for p in points)
+    sy = sum(p[1] for p in points)
+    stt = sum((p[0] - t_last) ** 2 for p in points)
+    sty = sum((p[0] - t_last) * p[1] for p in points)
+    den = n * stt - st * st
+    slope = (n * sty - st * sy) / den if den else 0.0
+    return (sy - slope * st) / n, slope

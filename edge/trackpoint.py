@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from edge.anchor import median
+from edge.anchor import line_fit, median
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalman, KalmanDesign, design_kalman
 from edge.core.match import Match, match_point
@@ -353,16 +353,7 @@ class TrackPoint:
         self.columns.append((self.frame, self.u))
         if len(self.columns) < 3:
             return
-        # least squares in plain Python: a handful of points, and np.polyfit costs 40 us a call
-        t_last = self.columns[-1][0]
-        n = len(self.columns)
-        st = sum(c[0] - t_last for c in self.columns)
-        su = sum(c[1] for c in self.columns)
-        stt = sum((c[0] - t_last) ** 2 for c in self.columns)
-        stu = sum((c[0] - t_last) * c[1] for c in self.columns)
-        den = n * stt - st * st
-        slope = (n * stu - st * su) / den if den else 0.0
-        intercept = (su - slope * st) / n
+        intercept, slope = line_fit(self.columns)
         rate = slope * self.s.fps
         if self.disparity is not None and self.disparity > 0 and self.s.baseline_m > 0:
             limit = self.disparity * MAX_SHIP_SPEED_MPS / self.s.baseline_m  # |u'| <= f v / Z = d v / L_B

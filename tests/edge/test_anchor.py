@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.anchor import median, reference_points
+from edge.anchor import line_fit, median, reference_points
 
 
 def _texture(seed: int, h: int, w: int, sigma: float = 1.2) -> np.ndarray:
@@ -42,3 +42,14 @@ def test_reference_points_pick_texture_in_the_upper_part_and_spread_out() -> Non
 @given(st.lists(st.floats(-1e3, 1e3), min_size=1, max_size=25))
 def test_median_equals_numpy(values: list[float]) -> None:
     assert median(values) == pytest.approx(float(np.median(values)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 50), st.floats(-100, 100)), min_size=3, max_size=12,
+                unique_by=lambda p: p[0]))
+def test_line_fit_equals_polyfit(points: list[tuple[int, float]]) -> None:
+    points.sort()
+    t = np.array([p[0] for p in points], float) - points[-1][0]
+    slope, intercept = np.polyfit(t, [p[1] for p in points], 1)
+    got = line_fit(points)
+    assert got[0] == pytest.approx(intercept, abs=1e-6) and got[1] == pytest.approx(slope, abs=1e-6)
