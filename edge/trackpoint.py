@@ -79,6 +79,7 @@ class PointSettings:
     search_radius_px: int = 4  # disparity search around the prediction
     follow_radius_px: int = 4  # left-follow search around the predicted position
     follow_subpixel: str = "parabola"  # the core point tracker's sub-pixel method
+    follow_every: int = 1  # run the point tracker every n-th pair (the motion fit carries it between)
     baseline_m: float = 0.0  # with focal_px: bounds the image motion and disparity rates (0: no bound)
     focal_px: float = 0.0
 
@@ -130,6 +131,7 @@ class TrackPoint:
         self.search_frames = 0
         self.follow_failures = 0  # pairs in a row the core tracker found no sure match
         self.jumped = (0.0, 0.0)  # (du, dv) of a move to another point of the ship in this pair
+        self.followed = False  # the point tracker measured the point in this pair
         self.rejects = 0
         self.frame = 0  # pairs seen (and skipped): the time axis of the column fit
         self.u_filtered: float | None = None
@@ -174,7 +176,11 @@ class TrackPoint:
         self.frame += 1
         self.match = None
         self.jumped = (0.0, 0.0)
-        if not self.searching and self.template is not None:
+        self.followed = False
+        if not self.searching and self.template is not None and len(self.columns) >= 3 and \
+                self.frame - self.columns[-1][0] < self.s.follow_every:
+            self.u += self.u_rate_pxps / self.s.fps  # between follows the image motion carries it
+        elif not self.searching and self.template is not None:
             pu = self.u + self.u_rate_pxps / self.s.fps
             if abs(pu - self.template_at[2]) > self.template_reach:
                 self._take_template(self.last_left, rect)  # moved too far for the kept patch
@@ -188,6 +194,7 @@ class TrackPoint:
                 self.searching = True
             else:
                 self.follow_failures = 0
+                self.followed = True
                 self.follow_costs.append(found.cost / self.s.window**4)  # ZSSD -> DN^2 per pixel
                 self.u, self.v = found.x_px + self.template_at[0], found.y_px + self.template_at[1]
         if self.searching:
@@ -337,7 +344,8 @@ class TrackPoint:
             self.rejects = 0
             if clean:
                 self.match_costs.append(m.cost)
-        self._fit_column()
+        if self.followed or self.template_age == 0:
+            self._fit_column()  # only positions the tracker measured enter the motion fit
 
     def _mixed(self, cost: float) -> bool:
         """A match much worse than this track's typical one: the window holds two objects at
