@@ -93,15 +93,14 @@ class Designs:
     (factors of 2), so the gate and the reported sigma fit the data actually seen."""
 
     def __init__(self, s: PointSettings) -> None:
-        self.s = s
-        self._disparity: dict[float, KalmanDesign] = {}
+        self.s, self._tables = s, {}
 
-    def disparity(self, sigma_meas_px: float) -> KalmanDesign:
-        if sigma_meas_px not in self._disparity:
-            s = self.s
-            self._disparity[sigma_meas_px] = design_kalman(s.fps, sigma_meas_px, s.sigma_accel_pxps2,
-                                                           gate_sigma=s.gate_sigma, reacquire_s=s.reacquire_s)
-        return self._disparity[sigma_meas_px]
+    def disparity(self, sigma_px: float) -> KalmanDesign:
+        s = self.s
+        if sigma_px not in self._tables:
+            self._tables[sigma_px] = design_kalman(s.fps, sigma_px, s.sigma_accel_pxps2, gate_sigma=s.gate_sigma,
+                                                   reacquire_s=s.reacquire_s)
+        return self._tables[sigma_px]
 
 
 class TrackPoint:
@@ -110,10 +109,9 @@ class TrackPoint:
     States: *following* (the template is followed from pair to pair and matched in the right
     image) and *searching* (the follow failed, matched too badly or off the track's motion — a
     ship passing in front — or the filter refused REJECTS_TO_SEARCH valid matches in a row: the
-    point slid onto another object). While searching the point coasts on the track's image
-    motion and the filters coast; the table offers new points on the ship (`try_point`), and
-    one whose disparity fits the filter's prediction resumes following. The filters are kept,
-    so the track keeps its range history and cannot adopt another ship's."""
+    point slid onto another object). While searching the point and the filters coast; the table
+    offers other points on the ship, and one whose disparity fits the prediction resumes
+    following. The filters are kept: the track cannot adopt another ship's range."""
 
     def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs) -> None:
         self.s = settings
