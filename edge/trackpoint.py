@@ -98,8 +98,8 @@ class Designs:
     def disparity(self, sigma_px: float) -> KalmanDesign:
         s = self.s
         if sigma_px not in self._tables:
-            self._tables[sigma_px] = design_kalman(s.fps, sigma_px, s.sigma_accel_pxps2, gate_sigma=s.gate_sigma,
-                                                   reacquire_s=s.reacquire_s)
+            self._tables[sigma_px] = design_kalman(s.fps, sigma_px, s.sigma_accel_pxps2,
+                                                   gate_sigma=s.gate_sigma, reacquire_s=s.reacquire_s)
         return self._tables[sigma_px]
 
 
