@@ -52,6 +52,7 @@ class SourcePlan:
     calibration: Calibration
     fps: float
     description: str
+    monotonic_stamps: bool  # pairs stamped on CLOCK_MONOTONIC (live); else a recording's own clock
 
 
 def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
@@ -63,7 +64,7 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
         site = config.effective_site or scenario.spec.site or cal.site
         return SourcePlan(lambda: live_source(scenario, cams.seed, cams.pace, cams.loop),
                           Calibration(cal.rig, site), scenario.spec.fps,
-                          f"virtual scenario {cams.scenario!r} seed {cams.seed}")
+                          f"virtual scenario {cams.scenario!r} seed {cams.seed}", monotonic_stamps=cams.pace)
     if isinstance(cams, ReplayCameras):
         root = Path(cams.path)
         try:
@@ -78,24 +79,25 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
         if not fps > 0:
             raise ConfigError(root / "meta.yaml", "fps", "a positive frame rate", fps)
         return SourcePlan(lambda: ReplaySource(root, pace=cams.pace, loop=cams.loop),
-                          Calibration(cal.rig, site), fps, f"recording {root}")
+                          Calibration(cal.rig, site), fps, f"recording {root}", monotonic_stamps=False)
     raise ConfigError(config_file, "cameras.kind",
                       "'virtual' or 'replay' (this build has no V4L2 capture driver yet)", cams.kind)
 
 
 class _Latest:
-    """One-slot queue: put() replaces an unread pair (counted as dropped)."""
+    """One-slot queue: put() replaces an unread pair (counted as dropped); remembers when it came."""
 
     def __init__(self) -> None:
         self._cond = threading.Condition()
         self._pair: FramePair | None = None
+        self.put_ns = 0  # CLOCK_MONOTONIC when the pair now held was put
         self.dropped = 0
         self.ended = False
 
     def put(self, pair: FramePair) -> None:
         with self._cond:
             self.dropped += self._pair is not None
-            self._pair = pair
+            self._pair, self.put_ns = pair, time.monotonic_ns()
             self._cond.notify()
 
     def end(self) -> None:
@@ -103,11 +105,12 @@ class _Latest:
             self.ended = True
             self._cond.notify()
 
-    def get(self, timeout_s: float) -> FramePair | None:
+    def get(self, timeout_s: float) -> tuple[FramePair, int] | None:
+        """(pair, CLOCK_MONOTONIC ns when it was captured), or None on time-out or end."""
         with self._cond:
             self._cond.wait_for(lambda: self._pair is not None or self.ended, timeout_s)
             pair, self._pair = self._pair, None
-            return pair
+            return None if pair is None else (pair, self.put_ns)
 
 
 class Appliance:
@@ -130,7 +133,8 @@ class Appliance:
         plan = plan_source(config, config_file)
         if plan.calibration.site is None:
             raise ConfigError(config_file, "site", "a site (lat_deg, lon_deg, height_m, heading_deg)")
-        utc_offset_ns = time.time_ns() - time.monotonic_ns()  # live pairs are stamped on CLOCK_MONOTONIC
+        # live pairs are stamped on CLOCK_MONOTONIC; a recording's clock is anchored at its first pair
+        utc_offset_ns = time.time_ns() - time.monotonic_ns() if plan.monotonic_stamps else 0
         pipeline = Pipeline(plan.calibration, config.pipeline, fps=plan.fps, utc_offset_ns=utc_offset_ns)
         health = HealthMonitor(standard_stages(output_stages(config.outputs, extra_nmea=bool(extra_nmea))))
         site = plan.calibration.site
@@ -162,14 +166,17 @@ class Appliance:
 
     def _process(self, stop: threading.Event) -> None:
         while not stop.is_set():
-            pair = self.queue.get(QUEUE_WAIT_S)
-            if pair is None:
+            got = self.queue.get(QUEUE_WAIT_S)
+            if got is None:
                 if self.queue.ended:
                     break
                 continue
+            pair, captured_ns = got
+            if self.steps == 0 and not self.plan.monotonic_stamps:  # UTC of a recording: now, onwards
+                self.pipeline.utc_offset_ns = time.time_ns() - pair.t_ns
             fixes = self.pipeline.step(pair)
             self.steps, self.live_fixes = self.steps + 1, len(fixes)
-            latency_s = max(0.0, (time.monotonic_ns() - pair.t_ns) / 1e9)
+            latency_s = (time.monotonic_ns() - captured_ns) / 1e9  # capture to outputs
             self.health.beat("processing", frames=1, latency_s=latency_s,
                              counters={"dropped_pairs": self.queue.dropped,
                                        "failed_pairs": self.pipeline.counters.failed})

@@ -7,6 +7,7 @@ the VTS's part with mbpoll against the Modbus TCP port.
 
 from __future__ import annotations
 
+import datetime
 import os
 import re
 import shutil
@@ -89,11 +90,33 @@ def test_daemon_notifies_systemd_and_serves_modbus_while_running(tmp_path: Path)
         assert any(m.startswith("STATUS=") for m in messages)
         assert messages[-1].startswith("STOPPING=1")
         assert re.search(r"^\$RATTM,\d\d,", stdout, re.M), stdout[-2000:]
+        assert_utc_is_now(stdout)
     finally:
         proc.kill()
         done.set()
         reader.join()
         notify.close()
+
+
+def assert_utc_is_now(nmea: str) -> None:
+    """The TTM time of measurement is UTC now (within the run), whatever clock the source stamps."""
+    stamps = re.findall(r"^\$RATTM,(?:[^,]*,){13}(\d{6}\.\d\d),", nmea, re.M)
+    assert stamps, nmea[-1000:]
+    now = datetime.datetime.now(datetime.UTC)
+    for stamp in stamps:
+        t = now.replace(hour=int(stamp[:2]), minute=int(stamp[2:4]), second=int(stamp[4:6]), microsecond=0)
+        assert abs((now - t).total_seconds() % 86400) < 120 or abs((t - now).total_seconds() % 86400) < 120
+
+
+def test_a_replayed_recording_reports_utc_now_not_its_own_clock(tmp_path: Path, recording) -> None:
+    root = recording("akashi-crossing", 40)
+    path = tmp_path / "replay.yaml"
+    path.write_text(yaml.safe_dump({"cameras": {"kind": "replay", "path": str(root), "pace": False},
+                                    "outputs": {"modbus": {"tcp": {"enabled": False}}}}))
+    proc = start(path, "--print-nmea")
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 0, stderr
+    assert_utc_is_now(stdout)
 
 
 @pytest.mark.parametrize("case, text, key", [
@@ -120,7 +143,8 @@ def test_capture_queue_keeps_the_newest_pair_and_counts_drops() -> None:
     img = np.zeros((4, 4), np.uint8)
     for k in range(3):
         q.put(FramePair(img, img, k, k, k, k, k))
-    assert q.get(0.1).t_ns == 2 and q.dropped == 2
+    got = q.get(0.1)
+    assert got is not None and got[0].t_ns == 2 and q.dropped == 2 and got[1] > 0
     assert q.get(0.01) is None and not q.ended
     q.end()
     assert q.get(1.0) is None and q.ended
