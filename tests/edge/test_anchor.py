@@ -2,33 +2,18 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
+from helpers import band_texture, shifted_u8
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from edge.anchor import line_fit, median, reference_points
 
 
-def _texture(seed: int, h: int, w: int, sigma: float = 1.2) -> np.ndarray:
-    """Band-limited random texture (float, ~0..255): sub-pixel shifts by interpolation stay honest."""
-    rng = np.random.default_rng(seed)
-    t = cv2.GaussianBlur(rng.normal(0.0, 1.0, (h, w)), (0, 0), sigma)
-    return 128.0 + 60.0 * t / t.std()
-
-
-def _shifted(tex: np.ndarray, dx: float, dy: float = 0.0) -> np.ndarray:
-    """tex moved right by dx, down by dy (bicubic on a band-limited texture), as uint8."""
-    m = np.float32([[1, 0, dx], [0, 1, dy]])
-    out = cv2.warpAffine(tex.astype(np.float32), m, (tex.shape[1], tex.shape[0]), flags=cv2.INTER_CUBIC,
-                         borderMode=cv2.BORDER_REFLECT)
-    return np.clip(np.round(out), 0, 255).astype(np.uint8)
-
-
 def test_reference_points_pick_texture_in_the_upper_part_and_spread_out() -> None:
     patch = np.full((60, 100), 100, np.uint8)
-    patch[12:24, 30:60] = _shifted(_texture(5, 12, 30), 0.0)  # textured superstructure, top of the box
+    patch[12:24, 30:60] = shifted_u8(band_texture(5, 12, 30), 0.0)  # textured superstructure, top of the box
     patch[40:50, 10:90] = 60  # flat dark hull below
     pts = reference_points(patch, (10, 10, 90, 50), (0, 0), 9, count=4)
     assert 30 <= pts[0][0] < 60 and 12 <= pts[0][1] < 24

@@ -8,14 +8,13 @@ real CLI (`mast-stereo check-config --calibration`) must exit 78 with one line.
 from __future__ import annotations
 
 import copy
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import yaml
+from helpers import run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -136,14 +135,6 @@ def test_poly10_needs_ten_coefficients_and_key_prefix_is_used() -> None:
     assert "a list of 10 numbers" in info.value.message
 
 
-def run_cli(*args: str | Path) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "edge.cli", *map(str, args)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
 
 
 @pytest.mark.parametrize(

@@ -8,14 +8,13 @@ checked to turn every kind of bad file into one line naming the key and exit 78.
 from __future__ import annotations
 
 import dataclasses
-import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 import pytest
 import yaml
+from helpers import run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -300,14 +299,6 @@ def test_markdown_table_lists_every_leaf_key() -> None:
 # ---------------------------------------------------------------- the real CLI: exit 78, key named
 
 
-def run_cli(*args: str | Path, cwd: Path = ROOT) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "edge.cli", *map(str, args)],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
 
 
 BAD_CONFIGS = {

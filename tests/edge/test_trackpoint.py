@@ -4,30 +4,15 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 import pytest
+from helpers import band_texture, shifted_u8
 
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 W, H = 320, 160
-
-
-def _texture(seed: int, h: int, w: int, sigma: float = 1.2) -> np.ndarray:
-    """Band-limited random texture (float, ~0..255): sub-pixel shifts by interpolation stay honest."""
-    rng = np.random.default_rng(seed)
-    t = cv2.GaussianBlur(rng.normal(0.0, 1.0, (h, w)), (0, 0), sigma)
-    return 128.0 + 60.0 * t / t.std()
-
-
-def _shifted(tex: np.ndarray, dx: float, dy: float = 0.0) -> np.ndarray:
-    """tex moved right by dx, down by dy (bicubic on a band-limited texture), as uint8."""
-    m = np.float32([[1, 0, dx], [0, 1, dy]])
-    out = cv2.warpAffine(tex.astype(np.float32), m, (tex.shape[1], tex.shape[0]), flags=cv2.INTER_CUBIC,
-                         borderMode=cv2.BORDER_REFLECT)
-    return np.clip(np.round(out), 0, 255).astype(np.uint8)
 
 
 def _rig() -> StereoRig:
@@ -38,13 +23,13 @@ def _rig() -> StereoRig:
 def test_point_follows_a_moving_ship_and_measures_its_disparity() -> None:
     """A textured 'hull' at disparity 12.4 px (Z = f B / d) moving 0.6 px/frame right."""
     rect = Rectifier(_rig())
-    tex = _texture(11, H, W + 40)
+    tex = band_texture(11, H, W + 40)
     d_true, speed = 12.4, 0.6
     settings_ = PointSettings(fps=10.0, window=15, max_disparity=40, baseline_m=8.0, focal_px=900.0)
     point = TrackPoint(150.0, 80.0, settings_, Designs(settings_))
     for k in range(40):
-        left = _shifted(tex, speed * k)[:, 20:W + 20]
-        right = _shifted(tex, speed * k - d_true)[:, 20:W + 20]
+        left = shifted_u8(tex, speed * k)[:, 20:W + 20]
+        right = shifted_u8(tex, speed * k - d_true)[:, 20:W + 20]
         rng = np.random.default_rng(k)
         left = np.clip(left + rng.normal(0, 1, left.shape), 0, 255).astype(np.uint8)
         right = np.clip(right + rng.normal(0, 1, right.shape), 0, 255).astype(np.uint8)
@@ -61,13 +46,13 @@ def test_point_refuses_a_jump_to_another_range_and_searches() -> None:
     """After 20 frames at d = 10, the right image suddenly says d = 16 (a ship in front): the filter
     refuses it, the point turns to searching instead of adopting the other range."""
     rect = Rectifier(_rig())
-    tex = _texture(12, H, W + 40)
+    tex = band_texture(12, H, W + 40)
     settings_ = PointSettings(fps=10.0, window=15, max_disparity=40, baseline_m=8.0, focal_px=900.0)
     point = TrackPoint(150.0, 80.0, settings_, Designs(settings_))
-    left = _shifted(tex, 0.0)[:, 20:W + 20]
+    left = shifted_u8(tex, 0.0)[:, 20:W + 20]
     for k in range(30):
         d = 10.0 if k < 20 else 16.0
-        right = _shifted(tex, -d)[:, 20:W + 20]
+        right = shifted_u8(tex, -d)[:, 20:W + 20]
         point.step(left, right, rect, candidates=lambda: [])
     assert point.searching
     assert point.predicted_disparity() == pytest.approx(10.0, abs=0.1)

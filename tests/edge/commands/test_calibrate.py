@@ -9,12 +9,12 @@ the site). The real CLI runs as a subprocess.
 from __future__ import annotations
 
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from helpers import run_cli
 
 from edge.calibration import load_calibration
 from edge.core.geodesy import world_to_geodetic
@@ -26,14 +26,6 @@ RIG, SITE = TRUTH.rig, TRUTH.site
 SITE_ARGS = ["--site-lat", "34.63", "--site-lon", "135.02", "--site-height", "25", "--site-heading", "180"]
 
 
-def run_cli(*args: str | Path) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "edge.cli", *map(str, args)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
 
 
 def observations(n: int, seed: int, noise: float = 0.3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
