@@ -103,6 +103,10 @@ class PipelineConfig:
     window: int = setting(15, min=3, max=63, check=_odd, doc="matching window side, px (eq. 3.8)")
     max_disparity: int = setting(128, min=1, max=2048, doc="disparity search range, px")
     cost: Literal["zssd", "ssd"] = setting("zssd", doc="zero-mean SSD (robust to gain/offset) or plain SSD")
+    prefilter: Literal["none", "xsobel"] = setting(
+        "none", doc="xsobel for real cameras: clipped horizontal Sobel before matching, robust to "
+        "response-curve/vignetting differences; costs accuracy on clean renders"
+    )
     detect_every: int = setting(5, min=1, max=1000, doc="run ship detection on every k-th pair")
     detect_decimation: int = setting(2, min=1, max=8, doc="detection works on an image shrunk by this")
     min_ship_px: int = setting(20, min=2, max=1000, doc="smallest ship length to detect, px (eq. 3.12)")

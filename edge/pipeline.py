@@ -75,7 +75,7 @@ class Pipeline:
                                  min_ship_px=cfg.min_ship_px)
         self.point_settings = PointSettings(
             fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=cfg.cost,
-            subpixel=subpixel,
+            prefilter=cfg.prefilter, subpixel=subpixel,
             filter=filter or cfg.filter, butterworth_cutoff_hz=cfg.butterworth_cutoff_hz,
             gate_sigma=cfg.gate_sigma, reacquire_s=cfg.coast_s, baseline_m=self.rig.baseline_m,
             focal_px=self.rect.f_px)

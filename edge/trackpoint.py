@@ -12,14 +12,13 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
   Where it finds no sure match (flat, ambiguous) the point is carried on its
   motion for a few pairs; a match too bad or off the motion means something
   passed in front, and the point is searched for (see `TrackPoint`).
-- Right match: `edge.core.match_point` on two rectified patches of the same
-  rows and columns, the search narrowed to the disparity filter's prediction
-  once it runs (a full search at birth and after a restart).
-- Filter: the core's fixed-point CV Kalman with its 3-sigma gate (default),
-  the thesis's Butterworth (eq. 6.1), or none (the raw whole-pixel / sub-pixel
-  stages that tools/evaluate compares). The left point's column is smoothed by
-  a least-squares line over the last second of follows: its slope is the
-  image motion that predicts the next position and gives the bearing rate.
+- Right match: `edge.core.match_point` on two rectified patches of the same rows and
+  columns (prefilter "xsobel": both clipped x-Sobel, edge.core.prefilter), the search narrowed
+  to the disparity filter's prediction once it runs (a full search at birth and after a restart).
+- Filter: the core's fixed-point CV Kalman with its 3-sigma gate (default), the thesis's
+  Butterworth (eq. 6.1), or none (the raw whole-pixel / sub-pixel stages that tools/evaluate
+  compares). The left point's column is smoothed by a least-squares line over the last second
+  of follows: its slope is the image motion that predicts the next position and gives the bearing rate.
 """
 
 from __future__ import annotations
@@ -35,6 +34,7 @@ from edge.anchor import line_fit, median
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalman, KalmanDesign, design_kalman
 from edge.core.match import Match, match_point
+from edge.core.prefilter import NOISE_GAIN
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack, track_point
 
@@ -67,6 +67,7 @@ class PointSettings:
     window: int = 15
     max_disparity: int = 128
     cost: str = "zssd"
+    prefilter: str = "none"  # "xsobel": the right match compares clipped x-Sobel patches
     subpixel: str = "cancel"
     filter: str = "kalman"
     butterworth_cutoff_hz: float = 0.5
@@ -374,13 +375,12 @@ class TrackPoint:
         if pred is not None:
             d_hi = max(4, min(d_hi, int(math.ceil(pred)) + s.search_radius_px + 1))
         x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
-        lp = rect.patch(left, 0, x0, vi - h, width, 2 * h + 1)
-        rp = rect.patch(right, 1, x0, vi - h, width, 2 * h + 1)
+        get, gain = (rect.xsobel_patch, NOISE_GAIN) if s.prefilter == "xsobel" else (rect.patch, 1.0)
+        lp, rp = (get(image, side, x0, vi - h, width, 2 * h + 1) for side, image in enumerate((left, right)))
         return match_point(lp, rp, u - x0, v - (vi - h), window=s.window, max_disparity=d_hi,
-                           predicted_disparity=pred,
+                           predicted_disparity=pred, cost=s.cost, subpixel=s.subpixel,
                            search_radius=s.search_radius_px if pred is not None else None,
-                           cost=s.cost, subpixel=s.subpixel, noise_dn=s.noise_dn,
-                           max_sigma_px=s.max_sigma_px)
+                           noise_dn=s.noise_dn * gain, max_sigma_px=s.max_sigma_px)
 
     def scatter_px(self) -> float | None:
         """Robust noise of the recent raw disparities: MAD of successive differences / sqrt(2)

@@ -7,7 +7,8 @@ highlights, depth edges). Clipping the horizontal derivative equalises every pix
 Measured by tools/bench-core (real-imagery section): ZSSD + cancellation goes from worse than
 OpenCV StereoBM to better on the Middlebury pair with cap 15. On clean renders the clipping
 discards sub-pixel information (textured RMS 0.008 -> 0.05 px), so it is a per-installation
-choice, applied once per frame to both images before `match_point`.
+choice (`pipeline.prefilter`), applied to both images before `match_point`: the pipeline filters
+only the rectified patches its right matches use (`Rectifier.xsobel_patch`).
 
 Integer: the 3x3 Sobel x kernel [-1 0 1] x [1 2 1]^T on uint8 fits int16 (|s| <= 1020);
 clip to [-cap, cap] and offset by cap gives uint8 in [0, 2 cap]. Borders reflect (OpenCV's
@@ -16,9 +17,14 @@ BORDER_REFLECT_101), so it equals cv2.Sobel(..., CV_16S, 1, 0, ksize=3) + clip.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 DEFAULT_CAP = 15
+# camera noise sigma n becomes sqrt(1+4+1 + 1+4+1) n = sqrt(12) n in the Sobel output (before
+# clipping, which only lowers it): the noise to give `match_point` for its predicted sigma
+NOISE_GAIN = math.sqrt(12.0)
 
 
 def xsobel(image: np.ndarray, cap: int = DEFAULT_CAP) -> np.ndarray:

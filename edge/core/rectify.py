@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 
 from edge.core.camera import CameraModel, PinholeCamera, StereoRig
+from edge.core.prefilter import xsobel
 
 MAP_CHUNK_ROWS = 64  # rows of the remap tables computed at a time (bounds the float64 temporaries)
 
@@ -116,3 +117,10 @@ class Rectifier:
         assert self._maps is not None
         map1, map2 = self._maps[side]
         return cv2.remap(image, map1[index], map2[index], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+    def xsobel_patch(self, image: np.ndarray, side: int, x0: int, y0: int, width: int,
+                     height: int) -> np.ndarray:
+        """`patch` through the clipped horizontal Sobel (edge.core.prefilter), uint8: fetched one
+        pixel larger all round for the 3x3 kernel, so away from the image border it equals the
+        filtered whole rectified image."""
+        return xsobel(self.patch(image, side, x0 - 1, y0 - 1, width + 2, height + 2))[1:-1, 1:-1]
