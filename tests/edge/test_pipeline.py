@@ -11,6 +11,7 @@ import pytest
 
 from drivers.camera.base import FramePair
 from drivers.camera.replay import ReplaySource
+from edge.config import PipelineConfig
 from edge.fix import TrackStatus
 from edge.pipeline import Pipeline
 from edge.replay import recording_calibration
@@ -24,10 +25,10 @@ def _pairs(path) -> list[FramePair]:
         return list(src)
 
 
-def _pipeline(path) -> Pipeline:
+def _pipeline(path, prefilter: str = "none") -> Pipeline:
     with ReplaySource(path) as src:
         meta = src.meta
-    return Pipeline(recording_calibration(path, meta), fps=meta["fps"])
+    return Pipeline(recording_calibration(path, meta), PipelineConfig(prefilter=prefilter), fps=meta["fps"])
 
 
 @pytest.fixture(scope="module")
@@ -40,9 +41,12 @@ def _run(pipeline: Pipeline, pairs: list[FramePair]) -> list:
     return [fix for pair in pairs for fix in pipeline.step(pair)]
 
 
-def test_the_crossing_ship_is_tracked_within_its_error_bars(akashi) -> None:
+@pytest.mark.parametrize("prefilter", ["none", "xsobel"])
+def test_the_crossing_ship_is_tracked_within_its_error_bars(akashi, prefilter: str) -> None:
     path, pairs = akashi
-    fixes = _run(_pipeline(path), pairs)
+    pipeline = _pipeline(path, prefilter)
+    fixes = _run(pipeline, pairs)
+    assert pipeline.counters.failed == 0
     truth: dict[int, list] = {}  # t_ns -> [(ship_id, x, y, z)]
     for sid, rows in read_truth(path).items():
         for t, x, y, z in rows:
