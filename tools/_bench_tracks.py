@@ -10,7 +10,6 @@ from _bench_common import table
 
 from edge.core import tracksim as ts
 from edge.core.butterworth import ButterworthQ
-from edge.core.kalman import DisparityKalman, design_kalman
 
 TUNE_SEED0 = 5000
 EVAL_SEED0 = 1000
@@ -18,17 +17,6 @@ SIGMA_MEAS_PX = 0.10
 LAG_LIMIT_PX = 0.01            # tuning constraint (acceptance: 0.02; margin for seed-to-seed spread)
 
 
-def _kalman(fs: float, sigma_a: float):
-    design = design_kalman(fs, SIGMA_MEAS_PX, sigma_a)
-
-    def make():
-        f = DisparityKalman(design)
-
-        def step(z):
-            e = f.update(z)
-            return (e.disparity_px, e.sigma_px) if e.valid else (np.nan, np.nan)
-        return step
-    return make
 
 
 def _butterworth(fs: float, fc: float):
@@ -66,7 +54,7 @@ def _tune(sc, fs, bias, seeds, grid) -> tuple[float, list[str]]:
     clean, dirty = ts.Disturbances(), _dirty(bias)
     best, notes = None, []
     for sa in grid:
-        make = _kalman(fs, sa)
+        make = ts.kalman_filter_maker(fs, SIGMA_MEAS_PX, sa)
         lag = float(np.mean([ts.lag_px(r) for r in _runs(sc, fs, clean, seeds, make)]))
         err = np.concatenate([r.d_est - r.d_true for r in _runs(sc, fs, dirty, seeds, make)])
         rms = float(np.sqrt(np.nanmean(err**2)))
@@ -120,14 +108,15 @@ def section_tracks(args: argparse.Namespace, out: list[str], curves: dict | None
     for sc in (ts.SHIP, ts.FAST_BOAT):
         for fs in (10.0, 30.0):
             sa, notes = _tune(sc, fs, ours, tune_seeds, grid)
+            kalman = ts.kalman_filter_maker(fs, SIGMA_MEAS_PX, sa)
             rows = [
                 _row("raw ZSSD+cancel (no filter)", sc, fs, ours, eval_seeds, _raw()),
                 _row("SSD+parabola + Butterworth 0.5 Hz (thesis)", sc, fs, thesis, eval_seeds,
                      _butterworth(fs, 0.5)),
-                _row("SSD+parabola + Kalman", sc, fs, thesis, eval_seeds, _kalman(fs, sa)),
+                _row("SSD+parabola + Kalman", sc, fs, thesis, eval_seeds, kalman),
                 _row("ZSSD+cancel + Butterworth 0.5 Hz", sc, fs, ours, eval_seeds, _butterworth(fs, 0.5)),
                 _row("ZSSD+cancel + Butterworth 0.2 Hz", sc, fs, ours, eval_seeds, _butterworth(fs, 0.2)),
-                _row("ZSSD+cancel + Kalman (default)", sc, fs, ours, eval_seeds, _kalman(fs, sa)),
+                _row("ZSSD+cancel + Kalman (default)", sc, fs, ours, eval_seeds, kalman),
             ]
             out.append(f"\n{sc.name}: {sc.far_m:g} m -> {sc.near_m:g} m at {sc.speed_mps:g} m/s "
                        f"(accel {sc.accel_mps2:g} m/s^2), {fs:g} fps; Kalman sigma_a = {sa:g} px/s^2 "

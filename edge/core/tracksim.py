@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from edge.core.kalman import DisparityKalman, design_kalman
+
 FB_PX_M = 15000.0          # f * B of the research note's examples (f = 3000 px, B = 5 m)
 
 
@@ -101,6 +103,21 @@ class TrackRun:
     d_est: np.ndarray          # NaN before the filter has an estimate
     sigma_est: np.ndarray      # NaN where the filter reports none (Butterworth)
     t_closest_s: float
+
+
+def kalman_filter_maker(fs_hz: float, sigma_meas_px: float, sigma_a: float
+                        ) -> Callable[[], Callable[[float | None], tuple[float, float]]]:
+    """`make_filter` for `run_track`: a fresh fixed-point Kalman per run, NaN until it has an estimate."""
+    design = design_kalman(fs_hz, sigma_meas_px, sigma_a)
+
+    def make() -> Callable[[float | None], tuple[float, float]]:
+        f = DisparityKalman(design)
+
+        def step(z: float | None) -> tuple[float, float]:
+            e = f.update(z)
+            return (e.disparity_px, e.sigma_px) if e.valid else (np.nan, np.nan)
+        return step
+    return make
 
 
 def run_track(sc: Scenario, fs_hz: float, dist: Disturbances, seed: int,

@@ -147,22 +147,11 @@ SCENARIOS = [(ts.SHIP, 10.0, 0.1), (ts.FAST_BOAT, 10.0, 0.5)]
 MATCHER_BIAS = 0.008 * np.sin(2 * np.pi * np.arange(32) / 32)
 
 
-def _kalman_maker(fs: float, sa: float):
-    design = design_kalman(fs, 0.1, sa)
-
-    def make():
-        f = DisparityKalman(design)
-
-        def step(z):
-            e = f.update(z)
-            return (e.disparity_px, e.sigma_px) if e.valid else (np.nan, np.nan)
-        return step
-    return make
 
 
 @pytest.mark.parametrize("scenario,fs,sa", SCENARIOS, ids=lambda v: getattr(v, "name", str(v)))
 def test_track_acceptance(scenario: ts.Scenario, fs: float, sa: float) -> None:
-    make = _kalman_maker(fs, sa)
+    make = ts.kalman_filter_maker(fs, 0.1, sa)
     lags = [ts.lag_px(ts.run_track(scenario, fs, ts.Disturbances(), s, make)) for s in (21, 22, 23)]
     assert abs(np.mean(lags)) <= 0.02
     dirty = ts.Disturbances(outlier_rate=0.02, burst_s=2.0, bias_curve=MATCHER_BIAS)
