@@ -45,6 +45,8 @@ VERTICAL_SHARE = 0.25  # a ship's disparity changes by less than this share of t
 SLOPE_ROWS = 4  # rows above and below the point for that test
 ROW_SIGMA_PX = 0.5  # row uncertainty of the point for its height above the sea
 SEARCH_CANDIDATES = 6  # points offered to a track that lost its point on the ship
+GLINT_SPARE = 4  # extra candidates ranked, so those with glints can go last
+CLIPPED_DN = 250  # a window holding a pixel this bright holds a clipped sun glint
 
 
 @dataclass(frozen=True)
@@ -171,9 +173,10 @@ class TrackTable:
 
     def _confirm(self, track: Track, box: np.ndarray, left: np.ndarray, right: np.ndarray, t_ns: int) -> bool:
         p = track.point
-        if not _contains(box, p.u, p.v) and p.prediction() is None:
-            # a point that never measured anything and is off the ship: start over on the ship (one
-            # with a range history stays: a searching point gets candidates from this box next pair)
+        if p.prediction() is None and (p.searching or not _contains(box, p.u, p.v)):
+            # a point without a range history that is off the ship, or lost what it followed (a
+            # glint gone): start over on the ship, as a searching point with a prediction cannot
+            # (one with a history stays: it gets candidates from this box next pair)
             p.reanchor(*self._reference(left, box))
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
         if track.status is TrackStatus.ACQUIRING and not p.searching:
@@ -205,13 +208,26 @@ class TrackTable:
         return self._candidates(left, box, 1)[0]
 
     def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES) -> list:
-        """The best-textured points in the upper part of a (rectified) ship box, best first."""
+        """The best-textured points in the upper part of a (rectified) ship box, best first.
+
+        Two kinds of window are avoided: (1) one across the bow or stern outline holds the sea
+        behind the ship, at another range, and its disparity is a mix of the two (a ship wider
+        than a window keeps its centres half a window inside its ends); (2) one holding clipped
+        pixels: a sun glint, the brightest texture there is, seen by one camera only and gone
+        within a few pairs (such windows come after all others, so a ship that is all glare
+        still gets a point)."""
         h = self.ps.window // 2
         x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
         x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
         ox, oy = x0 - h - 1, y0 - h - 1
         patch = self.rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
-        return reference_points(patch, (x0, y0, x1, y1), (ox, oy), self.ps.window, count)
+        cx0, cx1 = (x0 + h, x1 - h) if x1 - x0 > 2 * h + 1 else (x0, x1)
+        points = reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), self.ps.window, count + GLINT_SPARE)
+        glare = [bool(patch[int(v) - oy - h:int(v) - oy + h + 1, int(u) - ox - h:int(u) - ox + h + 1].max()
+                      >= CLIPPED_DN) for u, v in points]
+        ranked = [p for p, g in zip(points, glare, strict=True) if not g] + \
+            [p for p, g in zip(points, glare, strict=True) if g]
+        return ranked[:count]
 
     def _on_the_sea(self, disparity_px: float, box: np.ndarray) -> bool:
         """Is the measured disparity possible for a ship whose waterline is the box's bottom row?
