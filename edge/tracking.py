@@ -16,8 +16,12 @@ their column spans, for boxes in the same rows), gated at a minimum overlap
   (ACQUIRING, Q) with a fresh id — ids are never reused — if there is room
   and its first match (when valid) passes the same waterline check;
 - Q becomes TRACKING (T) after `confirm_n` of the last `confirm_m`
-  detection passes confirmed it and its filter runs; a Q track that can no
-  longer reach that is dropped (glints and wave crests do not persist);
+  detection passes confirmed it and its filter has taken `min_updates`
+  measurements (as many as the Kalman's start takes: the sigma of a filter
+  one or two updates old rests on a noise level chosen from a handful of
+  samples, and a far ship's first samples can agree by chance); a Q track
+  that can no longer reach that is dropped (glints and wave crests do not
+  persist);
 - T becomes LOST (L) when no measurement was accepted for `coast_s`, or no
   detection confirmed it for `unconfirmed_s`; L turns back to T when both
   resume, and is dropped `drop_s` after it turned L.
@@ -60,6 +64,7 @@ class TableSettings:
     waterline_tol_px: float = 4.0  # rows of slack in the waterline check (detection box bottom)
     max_ship_length_m: float = 400.0  # the point may be this much farther than the waterline's nearest
     min_height_m: float = 1.0  # a track's point must stand this far above the sea to become T
+    min_updates: int = 5  # ... and its filter have taken this many measurements since it (re)started
 
 
 class Track:
@@ -296,7 +301,7 @@ class TrackTable:
             misses = len(track.confirmations) - hits
             if misses > s.confirm_m - s.confirm_n or t_ns - track.last_measured_ns > s.coast_s * 1e9:
                 self._drop(track)
-            elif hits >= s.confirm_n and track.point.disparity is not None and self._standing(track):
+            elif hits >= s.confirm_n and track.point.updates >= s.min_updates and self._standing(track):
                 track.status = TrackStatus.TRACKING
             return
         if not track.point.usable and track.point.scatter_px() is not None:

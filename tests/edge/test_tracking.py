@@ -132,7 +132,7 @@ def test_slope_tells_the_sea_from_a_ship_side(sea: bool) -> None:
         assert abs(slope) < 0.02
 
 
-def test_ids_are_never_reused_and_q_needs_confirmations(recording) -> None:
+def test_ids_are_never_reused_and_q_needs_confirmations_and_a_running_filter(recording) -> None:
     path = recording("akashi-crossing", 30)
     with ReplaySource(path) as src:
         pairs, meta = list(src), src.meta
@@ -149,6 +149,7 @@ def test_ids_are_never_reused_and_q_needs_confirmations(recording) -> None:
                 seen_ids.append(t.id)
             if t.status is TrackStatus.TRACKING and t.id not in first_t:
                 first_t[t.id] = pair.t_ns / 1e9
+                assert t.point.updates >= pipe.table.s.min_updates  # the filter has run, not just started
     assert len(set(seen_ids)) == len(seen_ids) == pipe.table.births
     period = pipe.cfg.detect_every / meta["fps"]
     assert first_t, "the freighter must become T"
