@@ -227,9 +227,12 @@ class TrackTable:
         ox, oy = x0 - h - 1, y0 - h - 1
         patch = self.rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
         cx0, cx1 = (x0 + h, x1 - h) if x1 - x0 > 2 * h + 1 else (x0, x1)
+        clipped = patch >= CLIPPED_DN
+        if not clipped.any():
+            return reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), self.ps.window, count)
         points = reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), self.ps.window, count + GLINT_SPARE)
-        glare = [bool(patch[int(v) - oy - h:int(v) - oy + h + 1, int(u) - ox - h:int(u) - ox + h + 1].max()
-                      >= CLIPPED_DN) for u, v in points]
+        glare = [bool(clipped[int(v) - oy - h:int(v) - oy + h + 1, int(u) - ox - h:int(u) - ox + h + 1].any())
+                 for u, v in points]
         ranked = [p for p, g in zip(points, glare, strict=True) if not g] + \
             [p for p, g in zip(points, glare, strict=True) if g]
         return ranked[:count]
