@@ -45,7 +45,7 @@ from edge.core import subpixel as sp
 from edge.core.costs import COSTS, cost_curve, cost_curve_float, cost_curve_reference, gradient_energy
 from edge.core.fixedpoint import SUBPIX_BITS, from_q
 
-SUBPIXEL_METHODS = ("cancel", "cancel-oneway", "parabola", "none")
+SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel-oneway", "parabola", "none")
 IMPLS = ("int", "int-ref", "float")
 DEFAULT_SEARCH_RADIUS = 4
 
@@ -134,7 +134,9 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
         if fit is None:
             return None, "cost curve does not bracket the minimum (den <= 0)"
         return (fit if arith.is_float else sp.fit_to_q8(fit)), ""
-    a, b, ra, rb = sp.cancellation_costs(a_band, b_band, xa, d0, arith.cost, arith.is_float)
+    curves = sp.cancellation_costs(a_band, b_band, xa, d0, arith.cost, arith.is_float,
+                                   six=method == "cancel6")
+    a, b, ra, rb = curves[:4]
     fit_a, fit_b = arith.fit(a, d0 - 2), arith.fit(b, d0 - 2)
     if fit_a is None or fit_b is None:
         return None, "half-pixel cancellation pass has no interior minimum"
@@ -143,6 +145,12 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
     fit_ra, fit_rb = arith.fit(ra, -d0 - 2), arith.fit(rb, -d0 - 2)
     if fit_ra is None or fit_rb is None:
         return None, "right-to-left cancellation pass has no interior minimum"
+    if method == "cancel6":
+        fit_m, fit_rm = arith.fit(curves[4], d0 - 2), arith.fit(curves[5], -d0 - 2)
+        if fit_m is None or fit_rm is None:
+            return None, "mirrored half-pixel pass has no interior minimum"
+        six = sp.symmetric6_float if arith.is_float else sp.symmetric6_q8
+        return six(fit_a, fit_b, -fit_ra, -fit_rb, fit_m, -fit_rm), ""
     if arith.is_float:
         return sp.symmetric_float(fit_a, fit_b, -fit_ra, -fit_rb), ""
     return sp.symmetric_q8(fit_a, fit_b, -fit_ra, -fit_rb), ""

@@ -108,6 +108,19 @@ def symmetric_float(da: float, db: float, ra: float, rb: float) -> float:
     return 0.25 * (da + db + ra + rb)
 
 
+def symmetric6_q8(da_q10: int, db_q10: int, ra_q10: int, rb_q10: int, dm_q10: int, rm_q10: int) -> int:
+    """Six-pass cancellation: the four passes of `symmetric_q8` plus the mirrored half-pixel
+    passes dB' ~ d - 1/2 (2L vs Rh) and rB' ~ d + 1/2 (2R vs Lh, sign-flipped),
+    d = (dA + rA)/4 + (dB + dB' + rB + rB')/8, from Q10 fits to Q8 in one rounding."""
+    eight_d_q10 = 2 * (da_q10 + ra_q10) + db_q10 + dm_q10 + rb_q10 + rm_q10     # d in Q13
+    return round_shift(eight_d_q10, FIT_BITS + 3 - SUBPIX_BITS)
+
+
+def symmetric6_float(da: float, db: float, ra: float, rb: float, dm: float, rm: float) -> float:
+    """Float reference of `symmetric6_q8`."""
+    return 0.25 * (da + ra) + 0.125 * (db + dm + rb + rm)
+
+
 def contrast_gain_q8(energy_left: int, energy_right: int) -> int:
     """sqrt(energy_left / energy_right) in Q8 (integer square root), clamped to [1/2, 2]."""
     if energy_left <= 0 or energy_right <= 0:
@@ -142,14 +155,17 @@ def _candidate_index(w: int) -> np.ndarray:
 
 
 def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int, cost: str,
-                       as_float: bool = False) -> tuple[np.ndarray, ...]:
-    """Cost curves of the four half-pixel passes around the integer disparity d0, in one
-    vectorised step (18 windows):
+                       as_float: bool = False, *, six: bool = False) -> tuple[np.ndarray, ...]:
+    """Cost curves of the half-pixel passes around the integer disparity d0, in one vectorised
+    step (18 windows, 26 with `six`):
 
     LR-A (Lh vs Rh) for d = d0-2 .. d0+2,   LR-B (Lh vs 2R) for d = d0-2 .. d0+1,
     RL-A (Rh vs Lh) for e = -d0-2 .. -d0+2, RL-B (Rh vs 2L) for e = -d0-2 .. -d0+1,
+    and with six=True also the mirrored half-pixel passes
+    LR-B' (2L vs Rh) for d = d0-2 .. d0+1,  RL-B' (2R vs Lh) for e = -d0-2 .. -d0+1,
     where the right-to-left passes put the template on the right window at xr = xl - d0 and
     search the left image (e = -d). Needs columns xl-h-2 .. xl+h+3 and xr-h-2 .. xr+h+3.
+    Returns (LR-A, LR-B, RL-A, RL-B) or (LR-A, LR-B, RL-A, RL-B, LR-B', RL-B').
     Integer: N*sum(D^2) - (sum D)^2 (or sum D^2) in int64; float: mean-subtracted SSD (/N)."""
     w = left_band.shape[0]
     h = w // 2
@@ -163,6 +179,9 @@ def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d
     cands = ext[:, :, _candidate_index(w)]                   # (2, w, 9, w): Xh p=0..4, 2X p=1..4
     templates = ext[:, :, None, 2:2 + w]                      # Lh, Rh at p = 2
     diff = templates - cands[::-1]                    # [0]: Lh vs (Rh, 2R); [1]: Rh vs (Lh, 2L)
+    if six:                                           # 2L vs Rh p=0..3; 2R vs Lh p=0..3
+        doubled = ext[:, :, None, w + 6:2 * w + 6]                          # 2L, 2R at p = 2
+        diff = np.concatenate((diff, doubled - cands[::-1, :, :4]), axis=2)
     if as_float:
         if cost != "ssd":
             diff = diff - diff.mean(axis=(1, 3), keepdims=True)
@@ -173,4 +192,8 @@ def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d
             s1 = diff.sum(axis=(1, 3))
             costs = (w * w) * costs - s1 * s1
     curve_a, curve_b = costs[:, 4::-1], costs[:, 8:4:-1]        # ascending d (descending p)
-    return curve_a[0], curve_b[0], curve_a[1], curve_b[1]
+    if not six:
+        return curve_a[0], curve_b[0], curve_a[1], curve_b[1]
+    # LR-B': Rh at p has d = d0 + 3/2 - p (ascending d: p = 3..0); RL-B': e = -d0 + 3/2 - p
+    curve_m = costs[:, 12:8:-1]
+    return curve_a[0], curve_b[0], curve_a[1], curve_b[1], curve_m[0], curve_m[1]

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from edge.core import subpixel as sp
 from edge.core.costs import cost_curve_reference
-from edge.core.fixedpoint import FIT_ONE, SUBPIX_ONE
+from edge.core.fixedpoint import FIT_ONE, SUBPIX_ONE, round_shift
 from edge.core.match import match_point
 from edge.core.synth import Condition, sweep
 
@@ -48,6 +48,16 @@ def test_cancellation_rounding_within_one_q8_lsb(fits: list[int]) -> None:
     assert abs(sp.symmetric_q8(a, b, ra, rb) / SUBPIX_ONE - sp.symmetric_float(*f)) < 1 / SUBPIX_ONE
 
 
+@given(st.lists(st.integers(-(1 << 20), 1 << 20), min_size=6, max_size=6))
+def test_six_pass_rounding_within_one_q8_lsb(fits: list[int]) -> None:
+    f = [v / FIT_ONE for v in fits]
+    assert abs(sp.symmetric6_q8(*fits) / SUBPIX_ONE - sp.symmetric6_float(*f)) < 1 / SUBPIX_ONE
+    # consistent estimates d, d - 1/2, d, d + 1/2 (and the mirrored pair) average back to d exactly
+    d = fits[0]
+    half = FIT_ONE // 2
+    assert sp.symmetric6_q8(d, d - half, d, d + half, d - half, d + half) == round_shift(d, 2)
+
+
 def _explicit_curve(t_img: np.ndarray, b_img: np.ndarray, x: int, ds: range, h: int) -> np.ndarray:
     """Independent route: slice each candidate window of pre-built images, plain int64 SSD."""
     t = t_img[:, x - h:x + h + 1]
@@ -71,6 +81,15 @@ def test_cancellation_costs_equal_explicit_half_pixel_images(seed: int, d0: int)
     np.testing.assert_array_equal(ra, _explicit_curve(rh, lh, xr, range(-d0 - 2, -d0 + 3), h))
     np.testing.assert_array_equal(rb, _explicit_curve(rh, 2 * left.astype(np.int64), xr,
                                                       range(-d0 - 2, -d0 + 2), h))
+    six = sp.cancellation_costs(left, right, xl, d0, "ssd", six=True)
+    for four, same in zip((a, b, ra, rb), six[:4], strict=True):
+        np.testing.assert_array_equal(four, same)
+    # mirrored passes: 2L(x) vs Rh(x - d - 1) puts Rh's half-pixel centre at x - d - 1/2, so the
+    # curve entry for d = d0-2 .. d0+1 is the explicit SSD against Rh shifted by one more column
+    np.testing.assert_array_equal(six[4], _explicit_curve(2 * left.astype(np.int64), rh, xl,
+                                                          range(d0 - 1, d0 + 3), h))
+    np.testing.assert_array_equal(six[5], _explicit_curve(2 * right.astype(np.int64), lh, xr,
+                                                          range(-d0 - 1, -d0 + 3), h))
 
 
 def test_contrast_equalisation_makes_costs_gain_invariant() -> None:
