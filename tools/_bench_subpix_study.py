@@ -31,7 +31,9 @@ H = 7                                    # 15x15 window
 def _keys(a: float) -> tuple[np.ndarray, np.ndarray]:
     def k(t: float) -> float:
         t = abs(t)
-        return 1.5 * t**3 - 2.5 * t**2 + 1 if t <= 1 else -0.5 * t**3 + 2.5 * t**2 - 4 * t + 2 if t < 2 else 0.0
+        if t <= 1:
+            return 1.5 * t**3 - 2.5 * t**2 + 1
+        return -0.5 * t**3 + 2.5 * t**2 - 4 * t + 2 if t < 2 else 0.0
     return np.array([k(a + 1), k(a), k(1 - a), k(2 - a)]), np.arange(-1, 3)
 
 
@@ -86,7 +88,8 @@ def _windows(a: np.ndarray, cols: list[int]) -> np.ndarray:
 def _pass(template: np.ndarray, cands: np.ndarray) -> tuple[np.ndarray, ...]:
     t = template - template.mean()
     c = cands - cands.mean(axis=(1, 2), keepdims=True)
-    return (t * c).sum(axis=(1, 2)), float((t * t).sum()), (c * c).sum(axis=(1, 2)), ((t - c) ** 2).sum(axis=(1, 2))
+    ssd = ((t - c) ** 2).sum(axis=(1, 2))
+    return (t * c).sum(axis=(1, 2)), float((t * t).sum()), (c * c).sum(axis=(1, 2)), ssd
 
 
 def six_passes(left, right, x, y, d0):
@@ -99,9 +102,12 @@ def six_passes(left, right, x, y, d0):
     lr = [x - d0 + 2 - k for k in range(5)]
     rl = [xr + d0 - 2 + k for k in range(5)]
     win = lambda a, c: a[:, c - H:c + H + 1]            # noqa: E731
-    return [(_pass(win(lh, x), _windows(rh, lr)), d0), (_pass(win(lh, x), _windows(2 * rf, lr)), d0 + 0.5),
-            (_pass(win(rh, xr), _windows(lh, rl)), d0), (_pass(win(rh, xr), _windows(2 * lf, rl)), d0 - 0.5),
-            (_pass(win(2 * lf, x), _windows(rh, lr)), d0 - 0.5), (_pass(win(2 * rf, xr), _windows(lh, rl)), d0 + 0.5)]
+    return [(_pass(win(lh, x), _windows(rh, lr)), d0),
+            (_pass(win(lh, x), _windows(2 * rf, lr)), d0 + 0.5),
+            (_pass(win(rh, xr), _windows(lh, rl)), d0),
+            (_pass(win(rh, xr), _windows(2 * lf, rl)), d0 - 0.5),
+            (_pass(win(2 * lf, x), _windows(rh, lr)), d0 - 0.5),
+            (_pass(win(2 * rf, xr), _windows(lh, rl)), d0 + 0.5)]
 
 
 def _fit3(model: str, cross, e_t, e_c, ssd) -> float:
@@ -137,7 +143,8 @@ def _six(model: str):
 
 
 METHODS = {
-    "ZSSD+cancel (default, float)": lambda l, r, x, y: match_point(l, r, x, y, max_disparity=12, impl="float"),
+    "ZSSD+cancel (default, float)": lambda lft, rgt, x, y: match_point(lft, rgt, x, y, max_disparity=12,
+                                                                       impl="float"),
     "cancel6, parabola (float)": _six("parabola"),
     "cancel6, cosine fit": _six("cosine"),
     "cancel6, Gaussian fit (NCC)": _six("gauss"),
@@ -170,4 +177,5 @@ def section_study(args: argparse.Namespace, out: list[str]) -> None:
                          f"{rms / crb:.2f}"])
     out.append(f"Study (float sketches, tuning seeds {seeds.start}..{seeds.stop - 1} x {n_frac} fractions; "
                "not product code): other estimators against the Cramer-Rao bound")
-    out.append(table(["condition", "method", "RMS", "max|bias|", "gross+invalid", "CRB", "RMS/CRB"], rows) + "\n")
+    headers = ["condition", "method", "RMS", "max|bias|", "gross+invalid", "CRB", "RMS/CRB"]
+    out.append(table(headers, rows) + "\n")

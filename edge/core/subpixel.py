@@ -12,6 +12,22 @@ e(f + 1/2) ~ -e(f), so averaging with an estimate made on half-pixel-shifted dat
     pass B: curve of (Lh, 2R)  -> dB ~ d - 1/2            (Lh(x) = 2 L(x + 1/2))
     d = (dA + dB + 1/2) / 2
 
+Six-pass variant (`symmetric6_q8`, match_point subpixel="cancel6"): pass B smooths only the
+template (Lh vs 2R), so it also runs mirrored (2L vs Rh, and 2R vs Lh right-to-left) and
+d = (dA + rA)/4 + (dB + dB' + rB + rB')/8. Measured (tools/bench-core): RMS 2-4 % lower on
+every condition for ~10 % more time; the default stays "cancel".
+
+What is left (tools/bench-core, "subpixel" and opt-in "study" sections): on textured patches
+at 1 DN the error is ~1.8x the Cramer-Rao bound. Noise-free, ~0.005 px RMS remains: the
+first harmonic is not fully cancelled because pass A weights the image spectrum by
+cos^2(w/2) and pass B by cos(w/2) (a [1 1] kernel can only give odd powers with a half-pixel
+shift and even powers without one, so the two can never match exactly), the second harmonic
+is untouched by any half-pixel pairing, and there is a per-texture constant from the window
+edges. Under noise the [1 1] smoothing also costs ~25 % over the bound. Gauss-Newton steps on
+the raw windows avoid the smoothing but need fractional-position samples: linear, Keys
+cubic and Lanczos-3 interpolation all leave more phase error at quarter-pixel positions on
+this texture than the cancellation does (study section).
+
 Integer form: each fit is one division num/den to Q10 (FIT_BITS), with num = c(-1) - c(+1),
 den = 2(c(-1) - 2c(0) + c(+1)) and |num| <= den/2 at an interior minimum; the average is
 formed in Q10 and rounded once to Q8. Worst-case difference from the float reference:
