@@ -1,6 +1,7 @@
 """Study section of tools/bench-core (`--sections study`): float64 sketches of sub-pixel
 estimators that were considered for closing the gap to the Cramer-Rao bound, measured on the
-*tuning* seeds (5000+) so that choosing among them never looks at the evaluation seeds.
+*tuning* seeds (5000+) so that choosing among them never looks at the evaluation seeds
+(`--study-seeds evaluation` reruns it on 1000+ as a check of a choice already made).
 
 Not product code: none of these is in edge/core. They answer "would it help?" before anyone
 writes an integer version:
@@ -25,6 +26,7 @@ from edge.core.match import Match, match_point
 from edge.core.synth import Condition, sweep_many
 
 TUNE_SEED0 = 5000
+EVAL_SEED0 = 1000                        # bench-core's evaluation seeds (only with --study-seeds)
 H = 7                                    # 15x15 window
 
 
@@ -162,7 +164,10 @@ CONDITIONS = [Condition("textured, 1 DN"), Condition("textured, 0 DN (bias)", no
 def section_study(args: argparse.Namespace, out: list[str]) -> None:
     from _bench_common import table
     n_seeds, n_frac = (6, 8) if args.quick else (12, 16)
-    seeds = range(TUNE_SEED0, TUNE_SEED0 + n_seeds)
+    seed0 = TUNE_SEED0
+    if getattr(args, "study_seeds", "tuning") == "evaluation":       # a check, never for choosing
+        seed0, n_seeds = EVAL_SEED0, 2 * n_seeds
+    seeds = range(seed0, seed0 + n_seeds)
     rows = []
     for cond in CONDITIONS:
         res = sweep_many(cond, seeds, METHODS, n_fractions=n_frac)
@@ -175,7 +180,8 @@ def section_study(args: argparse.Namespace, out: list[str]) -> None:
             bias = float(np.nanmax(np.abs(np.nanmean(good, axis=0))))
             rows.append([cond.name, name, f"{rms:.4f}", f"{bias:.4f}", f"{1 - ok.mean():.3f}", f"{crb:.4f}",
                          f"{rms / crb:.2f}"])
-    out.append(f"Study (float sketches, tuning seeds {seeds.start}..{seeds.stop - 1} x {n_frac} fractions; "
+    kind = "tuning" if seed0 == TUNE_SEED0 else "EVALUATION"
+    out.append(f"Study (float sketches, {kind} seeds {seeds.start}..{seeds.stop - 1} x {n_frac} fractions; "
                "not product code): other estimators against the Cramer-Rao bound")
     headers = ["condition", "method", "RMS", "max|bias|", "gross+invalid", "CRB", "RMS/CRB"]
     out.append(table(headers, rows) + "\n")
