@@ -14,19 +14,25 @@ e(f + 1/2) ~ -e(f), so averaging with an estimate made on half-pixel-shifted dat
 
 Six-pass variant (`symmetric6_q8`, match_point subpixel="cancel6"): pass B smooths only the
 template (Lh vs 2R), so it also runs mirrored (2L vs Rh, and 2R vs Lh right-to-left) and
-d = (dA + rA)/4 + (dB + dB' + rB + rB')/8. Measured (tools/bench-core): RMS 2-4 % lower on
-every condition for ~10 % more time; the default stays "cancel".
+d = (dA + rA)/4 + (dB + dB' + rB + rB')/8.
 
-What is left (tools/bench-core, "subpixel" and opt-in "study" sections): on textured patches
-at 1 DN the error is ~1.8x the Cramer-Rao bound. Noise-free, ~0.005 px RMS remains: the
-first harmonic is not fully cancelled because pass A weights the image spectrum by
-cos^2(w/2) and pass B by cos(w/2) (a [1 1] kernel can only give odd powers with a half-pixel
-shift and even powers without one, so the two can never match exactly), the second harmonic
-is untouched by any half-pixel pairing, and there is a per-texture constant from the window
-edges. Under noise the [1 1] smoothing also costs ~25 % over the bound. Gauss-Newton steps on
-the raw windows avoid the smoothing but need fractional-position samples: linear, Keys
-cubic and Lanczos-3 interpolation all leave more phase error at quarter-pixel positions on
-this texture than the cancellation does (study section).
+Gaussian model (`gaussian_curves`, `gauss_fit_q`; subpixel="cancel6-gauss"): the parabola
+assumes a quadratic cost curve, i.e. a quadratic autocorrelation. A window of blurred
+texture has a near-Gaussian autocorrelation, so each pass fits the parabola of eq. 5.2 to
+-log NCC instead: y = log2(E_W) - 2 log2(2X) with X = (E_T + E_W - ZSSD)/2 the zero-mean
+cross-correlation and E_T, E_W the window energies, all exact integers from the same sums
+(log2 in Q24 by table, `fixedpoint.log2_q`); the six fits are combined as above. If a
+correlation is not positive or a log curve not convex, the six parabola fits are used.
+
+What is left (tools/bench-core, "subpixel" and opt-in "study" sections): the half-pixel
+pairing cancels only odd harmonics of the pixel-locking curve, and exactly only if both
+passes weight the image spectrum alike; pass A weights it by cos^2(w/2), pass B by
+cos(w/2) (a [1 1] kernel gives odd powers of cos(w/2) with a half-pixel shift and even
+powers without, so they can never match). The second harmonic, a per-texture constant from
+the window edges, and ~25 % excess noise from the [1 1] smoothing remain. Gauss-Newton steps
+on the raw windows avoid the smoothing but need samples at fractional positions: linear,
+Keys cubic and Lanczos-3 interpolation all leave more phase error at quarter-pixel
+positions on this texture than the cancellation does (study section).
 
 Integer form: each fit is one division num/den to Q10 (FIT_BITS), with num = c(-1) - c(+1),
 den = 2(c(-1) - 2c(0) + c(+1)) and |num| <= den/2 at an interior minimum; the average is
@@ -46,7 +52,7 @@ import math
 
 import numpy as np
 
-from edge.core.fixedpoint import FIT_BITS, SUBPIX_BITS, div_round, round_shift
+from edge.core.fixedpoint import FIT_BITS, SUBPIX_BITS, div_round, log2_q, round_shift
 
 
 def parabola_q(c_minus: int, c_zero: int, c_plus: int) -> int | None:
@@ -170,19 +176,11 @@ def _candidate_index(w: int) -> np.ndarray:
     return np.concatenate((cols, cols[1:] + w + 4))
 
 
-def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int, cost: str,
-                       as_float: bool = False, *, six: bool = False) -> tuple[np.ndarray, ...]:
-    """Cost curves of the half-pixel passes around the integer disparity d0, in one vectorised
-    step (18 windows, 26 with `six`):
-
-    LR-A (Lh vs Rh) for d = d0-2 .. d0+2,   LR-B (Lh vs 2R) for d = d0-2 .. d0+1,
-    RL-A (Rh vs Lh) for e = -d0-2 .. -d0+2, RL-B (Rh vs 2L) for e = -d0-2 .. -d0+1,
-    and with six=True also the mirrored half-pixel passes
-    LR-B' (2L vs Rh) for d = d0-2 .. d0+1,  RL-B' (2R vs Lh) for e = -d0-2 .. -d0+1,
-    where the right-to-left passes put the template on the right window at xr = xl - d0 and
-    search the left image (e = -d). Needs columns xl-h-2 .. xl+h+3 and xr-h-2 .. xr+h+3.
-    Returns (LR-A, LR-B, RL-A, RL-B) or (LR-A, LR-B, RL-A, RL-B, LR-B', RL-B').
-    Integer: N*sum(D^2) - (sum D)^2 (or sum D^2) in int64; float: mean-subtracted SSD (/N)."""
+def _pass_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int, cost: str,
+                as_float: bool, six: bool, energies: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Costs of all candidate windows, (2, 9) or (2, 13) with `six`, and (if `energies`) the
+    zero-mean energy of each of the nine candidate windows of both images, (2, 9); see
+    `cancellation_costs`."""
     w = left_band.shape[0]
     h = w // 2
     xr = xl - d0
@@ -198,18 +196,97 @@ def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d
     if six:                                           # 2L vs Rh p=0..3; 2R vs Lh p=0..3
         doubled = ext[:, :, None, w + 6:2 * w + 6]                          # 2L, 2R at p = 2
         diff = np.concatenate((diff, doubled - cands[::-1, :, :4]), axis=2)
+    energy = None
+    if energies:                                      # window sums from column sums
+        s1, s2 = np.stack((ext, ext * ext)).sum(axis=2)[:, :, _candidate_index(w)].sum(axis=3)
+        energy = s2 - s1 * s1 / (w * w) if as_float else (w * w) * s2 - s1 * s1
     if as_float:
         if cost != "ssd":
             diff = diff - diff.mean(axis=(1, 3), keepdims=True)
-        costs = (diff * diff).sum(axis=(1, 3))
-    else:
-        costs = (diff * diff).sum(axis=(1, 3))
-        if cost != "ssd":
-            s1 = diff.sum(axis=(1, 3))
-            costs = (w * w) * costs - s1 * s1
+        return (diff * diff).sum(axis=(1, 3)), energy
+    costs = (diff * diff).sum(axis=(1, 3))
+    if cost != "ssd":
+        d1 = diff.sum(axis=(1, 3))
+        costs = (w * w) * costs - d1 * d1
+    return costs, energy
+
+
+_TEMPLATE_OF = np.r_[[2] * 9, [6] * 4]       # per pass candidate: its template's window
+_CANDIDATE_OF = np.r_[0:9, 0:4]               # its window: Xh p=0..4, 2X p=1..4, then Xh p=0..3
+
+
+def _split(costs: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(2, 9 or 13) candidate values -> the pass curves in ascending disparity order."""
     curve_a, curve_b = costs[:, 4::-1], costs[:, 8:4:-1]        # ascending d (descending p)
-    if not six:
+    if costs.shape[1] == 9:
         return curve_a[0], curve_b[0], curve_a[1], curve_b[1]
     # LR-B': Rh at p has d = d0 + 3/2 - p (ascending d: p = 3..0); RL-B': e = -d0 + 3/2 - p
     curve_m = costs[:, 12:8:-1]
     return curve_a[0], curve_b[0], curve_a[1], curve_b[1], curve_m[0], curve_m[1]
+
+
+def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int, cost: str,
+                       as_float: bool = False, *, six: bool = False) -> tuple[np.ndarray, ...]:
+    """Cost curves of the half-pixel passes around the integer disparity d0, in one vectorised
+    step (18 windows, 26 with `six`):
+
+    LR-A (Lh vs Rh) for d = d0-2 .. d0+2,   LR-B (Lh vs 2R) for d = d0-2 .. d0+1,
+    RL-A (Rh vs Lh) for e = -d0-2 .. -d0+2, RL-B (Rh vs 2L) for e = -d0-2 .. -d0+1,
+    and with six=True also the mirrored half-pixel passes
+    LR-B' (2L vs Rh) for d = d0-2 .. d0+1,  RL-B' (2R vs Lh) for e = -d0-2 .. -d0+1,
+    where the right-to-left passes put the template on the right window at xr = xl - d0 and
+    search the left image (e = -d). Needs columns xl-h-2 .. xl+h+3 and xr-h-2 .. xr+h+3.
+    Returns (LR-A, LR-B, RL-A, RL-B) or (LR-A, LR-B, RL-A, RL-B, LR-B', RL-B').
+    Integer: N*sum(D^2) - (sum D)^2 (or sum D^2) in int64; float: mean-subtracted SSD (/N)."""
+    return _split(_pass_costs(left_band, right_band, xl, d0, cost, as_float, six)[0])
+
+
+def gaussian_curves(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int,
+                    as_float: bool = False) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...] | None]:
+    """The six ZSSD pass curves of `cancellation_costs(six=True)` (as lists, same order) and,
+    beside each, the curve
+    y = log2(E_W) - 2 log2(2X) = -2 log2(NCC) + const of the Gaussian model (Q24 ints or
+    float), where 2X = E_T + E_W - ZSSD is twice the zero-mean cross-correlation (exact in
+    integers) and E_T, E_W the zero-mean energies of template and candidate. None instead of
+    the model curves if some X <= 0 (no Gaussian through a non-positive correlation)."""
+    costs, energy = _pass_costs(left_band, right_band, xl, d0, "zssd", as_float, True, True)
+    e_t = energy[:, _TEMPLATE_OF]                    # per candidate: its pass's template energy
+    e_w = energy[::-1, _CANDIDATE_OF]                # LR: right candidates; RL: left ones
+    both = np.concatenate((e_w, e_t + e_w - costs), axis=1)           # (E_W | 2X), (2, 26)
+    curves = _split_lists(costs.tolist())
+    if not both.min() > 0:
+        return curves, None
+    logs = np.log2(both) if as_float else log2_q(both)
+    return curves, _split_lists((logs[:, :13] - 2 * logs[:, 13:]).tolist())
+
+
+def _split_lists(rows: list) -> tuple[list, ...]:
+    """`_split` of a (2, 13) nested list: six pass curves as lists (fast to fit one by one)."""
+    lr, rl = rows
+    return lr[4::-1], lr[8:4:-1], rl[4::-1], rl[8:4:-1], lr[12:8:-1], rl[12:8:-1]
+
+
+def gauss_fit_q(costs: np.ndarray | list, model: np.ndarray | list, d_first: int) -> int | None:
+    """Sub-pixel minimum (Q10 px) of the Gaussian model: the 3-point vertex of the log curve
+    `model` around the interior minimum of `costs` (eq. 5.2 applied to -log NCC); None if the
+    log curve is not convex there or its vertex lies more than one sample away."""
+    k = interior_argmin(costs)
+    if k is None:
+        return None
+    ym, y0, yp = int(model[k - 1]), int(model[k]), int(model[k + 1])
+    num, den = ym - yp, 2 * (ym - 2 * y0 + yp)
+    if den <= 0 or abs(num) > den:
+        return None
+    return ((d_first + k) << FIT_BITS) + div_round(num << FIT_BITS, den)
+
+
+def gauss_fit_float(costs: np.ndarray | list, model: np.ndarray | list, d_first: int) -> float | None:
+    """Float reference of `gauss_fit_q` (px)."""
+    k = interior_argmin(costs)
+    if k is None:
+        return None
+    ym, y0, yp = float(model[k - 1]), float(model[k]), float(model[k + 1])
+    num, den = ym - yp, 2.0 * (ym - 2.0 * y0 + yp)
+    if not den > 0 or abs(num) > den:
+        return None
+    return d_first + k + num / den

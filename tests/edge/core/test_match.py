@@ -42,7 +42,7 @@ def _scene_pair(d32: int, noise_dn: float = 1.0, seed: int = 3, **kw: float):
 def test_known_disparity_all_methods_and_impls() -> None:
     pair = _scene_pair(32 * 37 + 11)                    # d = 37.34375 px
     for sub, tol in (("none", 0.5), ("parabola", 0.1), ("cancel-oneway", 0.04), ("cancel", 0.03),
-                     ("cancel6", 0.03)):
+                     ("cancel6", 0.03), ("cancel6-gauss", 0.03)):
         results = [match_point(pair.left, pair.right, 70.0, 15.0, max_disparity=60, subpixel=sub,
                                impl=impl) for impl in ("int", "int-ref", "float")]
         assert all(m.valid for m in results), [m.reason for m in results]
@@ -86,7 +86,7 @@ def test_rms_near_cramer_rao_bound() -> None:
 @pytest.mark.parametrize("cond", [Condition("tex"), Condition("sharp", kind="sharp", psf_sigma_px=0.25),
                                   Condition("fog", fog_t=0.15), Condition("gain", gain=0.9, noise_dn=4),
                                   Condition("vert", vertical_8ths=2)], ids=lambda c: c.name)
-@pytest.mark.parametrize("sub", ["cancel", "cancel6", "parabola"])
+@pytest.mark.parametrize("sub", ["cancel", "cancel6", "cancel6-gauss", "parabola"])
 def test_integer_within_one_q8_lsb_of_float_reference(cond: Condition, sub: str) -> None:
     rng = np.random.default_rng(7)
     scene = make_scene(rng, 40, 80, cond.kind)
@@ -101,7 +101,7 @@ def test_integer_within_one_q8_lsb_of_float_reference(cond: Condition, sub: str)
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.integers(0, 2**31), st.integers(0, 31), st.sampled_from(["cancel", "cancel6"]))
+@given(st.integers(0, 2**31), st.integers(0, 31), st.sampled_from(["cancel", "cancel6", "cancel6-gauss"]))
 def test_integer_half_pixel_passes_match_float_on_random_renders(seed: int, k: int, sub: str) -> None:
     rng = np.random.default_rng(seed)
     pair = render_pair(make_scene(rng, 40, 80, "hull"), rng, 32 * 5 + k, height_px=31, width_px=60)

@@ -4,6 +4,7 @@ pixel-locking removal on exact-shift renders."""
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 from hypothesis import given
@@ -11,7 +12,7 @@ from hypothesis import strategies as st
 
 from edge.core import subpixel as sp
 from edge.core.costs import cost_curve_reference
-from edge.core.fixedpoint import FIT_ONE, SUBPIX_ONE, round_shift
+from edge.core.fixedpoint import FIT_ONE, LOG_BITS, SUBPIX_ONE, log2_q, round_shift
 from edge.core.match import match_point
 from edge.core.synth import Condition, sweep
 
@@ -56,6 +57,43 @@ def test_six_pass_rounding_within_one_q8_lsb(fits: list[int]) -> None:
     d = fits[0]
     half = FIT_ONE // 2
     assert sp.symmetric6_q8(d, d - half, d, d + half, d - half, d + half) == round_shift(d, 2)
+
+
+@given(st.lists(st.integers(1, (1 << 62) - 1), min_size=1, max_size=40))
+def test_integer_log2_within_table_error(values: list[int]) -> None:
+    got = log2_q(np.array(values, dtype=np.int64))
+    for v, q in zip(values, got.tolist(), strict=True):
+        assert abs(q / (1 << LOG_BITS) - math.log2(v)) < 2**-21
+        if v & (v - 1) == 0:                          # powers of two are exact
+            assert q == (v.bit_length() - 1) << LOG_BITS
+
+
+@given(st.integers(1, 1 << 20), st.integers(-1000, 1000), st.integers(-(1 << 40), 1 << 40))
+def test_gauss_fit_recovers_vertex_of_a_log_parabola(a: int, t_q10: int, c0: int) -> None:
+    # y(k) = a (1024 k - t)^2 + c0 for k = 0, 1, 2 around the cost minimum at k = 1
+    model = [a * (1024 * (k - 1) - t_q10) ** 2 + c0 for k in range(3)]
+    assert sp.gauss_fit_q([2, 1, 2], model, 7) == (8 << 10) + t_q10
+    f = sp.gauss_fit_float([2.0, 1.0, 2.0], [float(v) for v in model], 7)
+    assert f is not None and abs(f - 8 - t_q10 / 1024) < 1e-6
+    assert sp.gauss_fit_q([2, 1, 2], [-v for v in model], 7) is None       # concave: no fit
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(3, 9))
+def test_gaussian_curves_match_cancellation_costs_and_float(seed: int, d0: int) -> None:
+    rng = np.random.default_rng(seed)
+    left = rng.integers(20, 230, (9, 40), dtype=np.uint8)
+    right = np.clip(left.astype(int) + rng.integers(-20, 21, left.shape), 0, 255).astype(np.uint8)
+    curves, model = sp.gaussian_curves(left, right, 22, d0)
+    costs = sp.cancellation_costs(left, right, 22, d0, "zssd", six=True)
+    for c, ref in zip(curves, costs, strict=True):
+        assert c == ref.tolist()
+    f_curves, f_model = sp.gaussian_curves(left, right, 22, d0, as_float=True)
+    assert (model is None) == (f_model is None)
+    if model is not None:
+        for m, fm in zip(model, f_model, strict=True):
+            # integer Q24 logs of N-scaled sums: equal to the float model up to 3 log2(N)
+            offset = np.array(m) / (1 << LOG_BITS) - np.array(fm)
+            assert np.ptp(offset) < 2**-18
 
 
 def _explicit_curve(t_img: np.ndarray, b_img: np.ndarray, x: int, ds: range, h: int) -> np.ndarray:
