@@ -173,12 +173,12 @@ def _gauss6(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: i
             d0: int) -> float | int | None:
     """Six-pass cancellation with the Gaussian model of each pass's NCC curve (Q8 int or float
     px), or None if any pass has no such fit."""
-    curves, models = sp.gaussian_curves(a_band, b_band, xa, d0, arith.is_float)
+    models = sp.ncc_log_curves(a_band, b_band, xa, d0, arith.is_float)
     if models is None:
         return None
     fit = sp.gauss_fit_float if arith.is_float else sp.gauss_fit_q
     firsts = (d0 - 2, d0 - 2, -d0 - 2, -d0 - 2, d0 - 2, -d0 - 2)
-    fits = [fit(c, m, f) for c, m, f in zip(curves, models, firsts, strict=True)]
+    fits = [fit(m, f) for m, f in zip(models, firsts, strict=True)]
     if any(f is None for f in fits):
         return None
     da, db, ra, rb, dm, rm = fits

@@ -186,7 +186,7 @@ def _pass_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int,
     xr = xl - d0
     regs = np.stack((left_band[:, xl - h - 2:xl + h + 4], right_band[:, xr - h - 2:xr + h + 4]))
     regs = regs.astype(np.float64 if as_float else np.int64)                # (2, w, w+5)
-    if cost != "ssd":
+    if cost != "ssd" and not energies:         # NCC (with energies) needs no gain equalisation
         regs = _equalise_contrast(regs, w, as_float)
     # half sums and doubled samples side by side; one gather takes all nine candidate windows
     ext = np.concatenate((regs[:, :, :-1] + regs[:, :, 1:], 2 * regs[:, :, :-1]), axis=2)
@@ -241,23 +241,62 @@ def cancellation_costs(left_band: np.ndarray, right_band: np.ndarray, xl: int, d
     return _split(_pass_costs(left_band, right_band, xl, d0, cost, as_float, six)[0])
 
 
-def gaussian_curves(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int,
-                    as_float: bool = False) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...] | None]:
-    """The six ZSSD pass curves of `cancellation_costs(six=True)` (as lists, same order) and,
-    beside each, the curve
-    y = log2(E_W) - 2 log2(2X) = -2 log2(NCC) + const of the Gaussian model (Q24 ints or
-    float), where 2X = E_T + E_W - ZSSD is twice the zero-mean cross-correlation (exact in
-    integers) and E_T, E_W the zero-mean energies of template and candidate. None instead of
-    the model curves if some X <= 0 (no Gaussian through a non-positive correlation)."""
-    costs, energy = _pass_costs(left_band, right_band, xl, d0, "zssd", as_float, True, True)
-    e_t = energy[:, _TEMPLATE_OF]                    # per candidate: its pass's template energy
-    e_w = energy[::-1, _CANDIDATE_OF]                # LR: right candidates; RL: left ones
-    both = np.concatenate((e_w, e_t + e_w - costs), axis=1)           # (E_W | 2X), (2, 26)
-    curves = _split_lists(costs.tolist())
+def ncc_log_curves(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int,
+                   as_float: bool = False) -> tuple[list, ...] | None:
+    """Curves y = log2(E_W) - 2 log2(2X) = -2 log2(NCC) + const of the six passes of
+    `cancellation_costs(six=True)` (same order and candidates; lists, Q24 ints or float), where
+    X is the zero-mean cross-correlation of template and candidate and E_T, E_W their
+    zero-mean energies; None if some X <= 0 (no Gaussian through a non-positive correlation).
+    NCC is gain-invariant, so there is no contrast equalisation.
+
+    Integer: window sums S1, S2 from column sums and the cross terms sum TW from one matrix
+    product of the 9-bit sums, then N-scaled E_W = N S2 - S1^2 and 2X = 2(N sum TW - S1_T S1_W)
+    (all integers below 2^36, carried in float64, which holds them exactly, as in
+    `costs.cost_curve`), log2 by `fixedpoint.log2_q`. Float (the reference): the
+    mean-subtracted SSD curves and energies, 2X = E_T + E_W - SSD."""
+    if as_float:
+        costs, energy = _pass_costs(left_band, right_band, xl, d0, "zssd", True, True, True)
+        e_w = energy[::-1, _CANDIDATE_OF]            # LR: right candidates; RL: left ones
+        both = np.concatenate((e_w, energy[:, _TEMPLATE_OF] + e_w - costs), axis=1)
+    else:
+        both = _ncc_terms(left_band, right_band, xl, d0)
     if not both.min() > 0:
-        return curves, None
+        return None
     logs = np.log2(both) if as_float else log2_q(both)
-    return curves, _split_lists((logs[:, :13] - 2 * logs[:, 13:]).tolist())
+    return _split_lists((logs[:, :13] - 2 * logs[:, 13:]).tolist())
+
+
+@functools.cache
+def _ncc_index(w: int) -> tuple[np.ndarray, ...]:
+    """0/1 matrix summing band columns into the nine candidate windows of [half sums | doubled
+    samples], the columns of the two templates (Xh and 2X at p = 2), and (row, column) in the
+    template-by-band product of each of the 13 template-candidate pairs of the six passes."""
+    starts = np.r_[0:5, w + 5:w + 9]
+    cols = np.arange(2 * w + 8)[:, None]
+    windows = ((cols >= starts) & (cols < starts + w)).astype(np.float64)     # (2w+8, 9)
+    tmpl_cols = np.r_[2:2 + w, w + 6:2 * w + 6]
+    rows = (_TEMPLATE_OF[:, None] == 6) * w + np.arange(w)[None, :]
+    pair_cols = starts[_CANDIDATE_OF][:, None] + np.arange(w)[None, :]
+    return windows, tmpl_cols, rows, pair_cols
+
+
+def _ncc_terms(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: int) -> np.ndarray:
+    """(2, 26) int64: [N-scaled E_W | N-scaled 2X] of the 13 candidates of each direction.
+    Integer arithmetic carried in float64: every value is an integer below 2^36, so exact."""
+    w = left_band.shape[0]
+    h = w // 2
+    xr = xl - d0
+    regs = np.stack((left_band[:, xl - h - 2:xl + h + 4], right_band[:, xr - h - 2:xr + h + 4]))
+    regs = regs.astype(np.float64)
+    ext = np.concatenate((regs[:, :, :-1] + regs[:, :, 1:], 2 * regs[:, :, :-1]), axis=2)
+    windows, tmpl_cols, rows, pair_cols = _ncc_index(w)
+    s1, s2 = np.stack((ext.sum(axis=1), (ext * ext).sum(axis=1))) @ windows      # (2, 9) each
+    prod = np.matmul(ext[:, :, tmpl_cols].transpose(0, 2, 1), ext[::-1])   # (2, 2w, 2w+8)
+    cross = prod[:, rows, pair_cols].sum(axis=2)                            # (2, 13)
+    n = w * w
+    s1_w, s2_w = s1[::-1, _CANDIDATE_OF], s2[::-1, _CANDIDATE_OF]
+    terms = np.concatenate((n * s2_w - s1_w * s1_w, 2 * (n * cross - s1[:, _TEMPLATE_OF] * s1_w)), axis=1)
+    return terms.astype(np.int64)
 
 
 def _split_lists(rows: list) -> tuple[list, ...]:
@@ -266,11 +305,11 @@ def _split_lists(rows: list) -> tuple[list, ...]:
     return lr[4::-1], lr[8:4:-1], rl[4::-1], rl[8:4:-1], lr[12:8:-1], rl[12:8:-1]
 
 
-def gauss_fit_q(costs: np.ndarray | list, model: np.ndarray | list, d_first: int) -> int | None:
+def gauss_fit_q(model: list, d_first: int) -> int | None:
     """Sub-pixel minimum (Q10 px) of the Gaussian model: the 3-point vertex of the log curve
-    `model` around the interior minimum of `costs` (eq. 5.2 applied to -log NCC); None if the
-    log curve is not convex there or its vertex lies more than one sample away."""
-    k = interior_argmin(costs)
+    `model` (-2 log2 NCC) around its interior minimum (eq. 5.2 applied to -log NCC); None if
+    that minimum is at an end, or the vertex lies more than one sample away."""
+    k = interior_argmin(model)
     if k is None:
         return None
     ym, y0, yp = int(model[k - 1]), int(model[k]), int(model[k + 1])
@@ -280,9 +319,9 @@ def gauss_fit_q(costs: np.ndarray | list, model: np.ndarray | list, d_first: int
     return ((d_first + k) << FIT_BITS) + div_round(num << FIT_BITS, den)
 
 
-def gauss_fit_float(costs: np.ndarray | list, model: np.ndarray | list, d_first: int) -> float | None:
+def gauss_fit_float(model: list, d_first: int) -> float | None:
     """Float reference of `gauss_fit_q` (px)."""
-    k = interior_argmin(costs)
+    k = interior_argmin(model)
     if k is None:
         return None
     ym, y0, yp = float(model[k - 1]), float(model[k]), float(model[k + 1])
