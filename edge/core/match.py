@@ -11,17 +11,20 @@ constant on a fronto-parallel hull, so the fraction of x does *not* change d; it
 right point: x_right = x - d. (On a slanted surface with disparity gradient g the attribution
 error is at most g/2 px.)
 
-Sub-pixel (subpixel="cancel", default): the symmetric Shimizu-Okutomi half-pixel passes of
+Sub-pixel (subpixel="cancel"): the symmetric Shimizu-Okutomi half-pixel passes of
 `subpixel.py`, run both ways (left window against the right image, and the matched right
 window against the left image) and averaged. The one-way version (subpixel="cancel-oneway",
 the research note's) keeps a texture-dependent bias of ~0.01 px from the window edges (the
 cost curve of a finite window is not symmetric); in the reverse direction that bias flips
 sign, so the average removes it (bench: textured RMS 0.012 -> 0.0085 px). subpixel="cancel6"
-adds the mirrored half-pixel passes (`subpixel.symmetric6_q8`): 2-4 % lower RMS, ~10 % slower.
-subpixel="cancel6-gauss" also replaces each pass's parabola by a Gaussian model of its NCC
-curve (ZSSD only; SSD falls back to "cancel6"): textured RMS/CRB 1.83 -> 1.58 and half the
-max bias, better RMS on every bench condition, but ~1.6x the time of "cancel" per call, so
-it is not the default (tools/bench-core, "subpixel" and "speed").
+adds the mirrored half-pixel passes (`subpixel.symmetric6_q8`): 2-4 % lower RMS.
+
+Default (subpixel="cancel6-gauss"): the six passes, each fitted with a Gaussian model of its
+NCC curve instead of a parabola of its cost curve (`subpixel.ncc_log_curves`; the ZSSD cost
+only: with cost="ssd" it is "cancel6"). tools/bench-core: textured RMS/CRB 1.83 -> 1.58,
+max bias 0.0076 -> 0.0038 px, lower RMS on every condition, ~1.3x the time of "cancel" per
+call. If a correlation is not positive or a model curve has no interior minimum it uses
+the parabola fits of "cancel6" (and the four-pass result if the mirrored passes fail).
 
 The sub-pixel stage is `refine(arith, a_band, b_band, xa, d_lo, costs, k0, method)`: it takes
 only the outcome of the integer search (the row bands, the window column, the curve and its
@@ -220,7 +223,7 @@ def search_range(x_int: int, width: int, window: int, min_disparity: int, max_di
 def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, window: int = 15,
                 max_disparity: int = 128, min_disparity: int = 0,
                 predicted_disparity: float | None = None, search_radius: int | None = None,
-                cost: str = "zssd", subpixel: str = "cancel", noise_dn: float = 1.0,
+                cost: str = "zssd", subpixel: str = "cancel6-gauss", noise_dn: float = 1.0,
                 min_ratio: float = 1.1, max_sigma_px: float = 0.3, impl: str = "int") -> Match:
     """Find the right-image match of left point (x, y) along the same row; see the module doc.
 

@@ -16,13 +16,15 @@ Six-pass variant (`symmetric6_q8`, match_point subpixel="cancel6"): pass B smoot
 template (Lh vs 2R), so it also runs mirrored (2L vs Rh, and 2R vs Lh right-to-left) and
 d = (dA + rA)/4 + (dB + dB' + rB + rB')/8.
 
-Gaussian model (`gaussian_curves`, `gauss_fit_q`; subpixel="cancel6-gauss"): the parabola
-assumes a quadratic cost curve, i.e. a quadratic autocorrelation. A window of blurred
-texture has a near-Gaussian autocorrelation, so each pass fits the parabola of eq. 5.2 to
--log NCC instead: y = log2(E_W) - 2 log2(2X) with X = (E_T + E_W - ZSSD)/2 the zero-mean
-cross-correlation and E_T, E_W the window energies, all exact integers from the same sums
-(log2 in Q24 by table, `fixedpoint.log2_q`); the six fits are combined as above. If a
-correlation is not positive or a log curve not convex, the six parabola fits are used.
+Gaussian model (`ncc_log_curves`, `gauss_fit_q`; subpixel="cancel6-gauss", match_point's
+default): the parabola assumes a quadratic cost curve, i.e. a quadratic autocorrelation of
+the window; blurred texture has a near-Gaussian one, so each pass fits the parabola of
+eq. 5.2 to -log NCC instead: y = log2(E_W) - 2 log2(2X), X the zero-mean cross-correlation of
+template and candidate and E_W the candidate's zero-mean energy (E_T is common to a pass),
+exact integers from window sums and one product, log2 in Q24 (`fixedpoint.log2_q`); the six
+fits are combined as above. NCC is gain-invariant, so these passes need no contrast
+equalisation. If a correlation is not positive or a log curve has no interior minimum, the
+caller uses the parabola fits. Bench: textured RMS/CRB 1.83 -> 1.58, max bias halved.
 
 What is left (tools/bench-core, "subpixel" and opt-in "study" sections): the half-pixel
 pairing cancels only odd harmonics of the pixel-locking curve, and exactly only if both
