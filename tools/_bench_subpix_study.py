@@ -12,7 +12,9 @@ writes an integer version:
   interpolation, started from the cancellation estimate or from the plain parabola;
 - six-pass cancellation (`subpixel="cancel6"`) with other 3-point models of the curve than the
   parabola: a cosine through the cross-correlation (exact for a single sinusoid) and a
-  Gaussian through the normalised cross-correlation (exact for a Gaussian autocorrelation).
+  Gaussian through the normalised cross-correlation (exact for a Gaussian autocorrelation;
+  the sketch that led to match_point's default "cancel6-gauss", which differs only in
+  choosing the centre sample on the model curve and in its integer arithmetic).
 """
 
 from __future__ import annotations
@@ -145,11 +147,11 @@ def _six(model: str):
 
 
 METHODS = {
-    "ZSSD+cancel (default, float)": lambda lft, rgt, x, y: match_point(lft, rgt, x, y, max_disparity=12,
-                                                                       impl="float"),
+    "ZSSD+cancel (previous default, float)": lambda lft, rgt, x, y: match_point(
+        lft, rgt, x, y, max_disparity=12, subpixel="cancel", impl="float"),
     "cancel6, parabola (float)": _six("parabola"),
     "cancel6, cosine fit": _six("cosine"),
-    "cancel6, Gaussian fit (NCC)": _six("gauss"),
+    "cancel6, Gaussian fit (NCC; ~ the default)": _six("gauss"),
     "cancel + 1 GN step, linear": _gn("cancel", 1, _linear),
     "cancel + 1 GN step, Keys cubic": _gn("cancel", 1, _keys),
     "cancel + 1 GN step, Lanczos-3": _gn("cancel", 1, _lanczos3),
