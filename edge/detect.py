@@ -197,6 +197,11 @@ class Detector:
         bands = [(0, top)] + [(b[0], b[-1] + 1) for b in split if len(b)]
         for r0, r1 in bands:
             levels[r0:r1] = _robust_level(sample[r0 // 2:(r1 + 1) // 2])
+        sea = bands[1:]
+        if len(sea) >= 2:
+            centres = np.array([0.5 * (r0 + r1 - 1) for r0, r1 in sea])
+            values = np.array([levels[r0] for r0, _ in sea])
+            levels[top:] = np.interp(np.arange(top, hs), centres, values)
         return levels
 
     def _plausible(self, blob: Blob, horizon: np.ndarray) -> bool:
