@@ -191,7 +191,7 @@ class Detector:
             sel = np.isin(labels[y0 - by:y1 - by, x0 - bx:x1 - bx], labs)
             resp = float(residual[y0:y1, x0:x1][sel].mean())
             dy = shifts[x0:x1]  # back from horizon-level rows to image rows
-            top, bottom = y0 + math.floor(dy.min()), y1 + math.ceil(dy.max())
+            top, bottom = y0 + math.floor(dy.min() + 0.5), y1 + math.floor(dy.max() + 0.5)
             blob = Blob(x0 * dec, top * dec, x1 * dec, bottom * dec, area * dec * dec, resp)
             if self._plausible(blob, horizon):
                 blobs.append(blob)
