@@ -9,23 +9,35 @@ costs a few milliseconds even at 2048 x 1536:
    gradient near the prediction in each of several column bands, the median
    offset over the bands (so a ship on the horizon cannot pull it), clamped to
    a few pixels of the prediction and smoothed over time.
-2. Contrast. Vertical-line white and black top-hats: they keep whatever is
-   shorter than the structuring element vertically and brighter or darker than
-   its surroundings, and remove the sky gradient, the sea gradient and the
-   horizon step (all extended vertically or horizontally). Ships are bright
-   superstructure and dark hulls, so both polarities count.
-3. Threshold per row band, from the robust spread (median + k MAD) of the
-   contrast image on the sea: the wave texture near the camera is stronger
-   than far out, and a fixed threshold would either flood the foreground or
-   miss the fog.
-4. Blobs: a horizontal closing joins hull and superstructure, connected
+2. Levelling. Each column is moved up by its horizon's offset from the
+   median horizon row, by a fraction of a row (linear between rows): a rolled
+   camera tilts the horizon, the lens curves it, and whole-row shifts would
+   leave up to half a row of it, which where the brightness changes fast down
+   the rows (the horizon step, the haze under it) is a residual as strong as a
+   hull along every run of columns on the wrong side of the rounding.
+3. Contrast. The residual against the row's median (the sky and sea gradients
+   and the horizon step are constant along a levelled row), averaged over a
+   small box: noise drops by the square root of its area, a solid hull does
+   not. Both polarities count (bright superstructure, dark hulls).
+4. Threshold per row, from the robust spread (median + k MAD) of the residual:
+   one level for the sky, and on the sea levels from row bands interpolated
+   between the bands' centre rows. The sea's texture grows steadily toward the
+   camera (the same waves seen nearer and steeper: their image scale and
+   contrast rise with the depression angle), so a level held constant over a
+   band is the band's average texture and the near edge of every band passes
+   as long, flat "wave band" blobs; a level that follows the rows does not.
+5. Blobs: a horizontal closing joins hull and superstructure, connected
    components with stats, nearby boxes merged. Kept when at least
    `min_ship_px` long (eq. 3.12 sets that length), tall enough to be a body
    rather than a wave crest, their bottom at or below the horizon (on the sea,
-   or hull-down beyond it) and their top not far below it... for the size they
-   have. Glints (a few pixels) fail the size test; wave crests the shape and
-   height tests; what still slips through must persist and match in stereo
-   at the sea range of its waterline before it becomes a track (tracking.py).
+   or hull-down beyond it), and standing at least `MIN_HEIGHT_M` tall at the
+   sea range of their waterline. Glints (a few pixels) fail the size test;
+   what still slips through must persist and match in stereo at the sea range
+   of its waterline before it becomes a track (tracking.py).
+
+Cost: the work images are kept between calls (fresh multi-megabyte arrays cost
+page faults), the horizon gradient is taken on the search strip only, and the
+labelling runs inside the bounding box of the set pixels.
 """
 
 from __future__ import annotations
@@ -238,7 +250,8 @@ class Detector:
         return out
 
     def _levels(self, residual: np.ndarray, horizon_row: int) -> np.ndarray:
-        """Threshold per row: median + k MAD of |residual| over the row band (sky above, sea bands below)."""
+        """Threshold per row: median + k MAD of |residual| over the sky, and over each sea row band,
+        interpolated between the bands' centre rows (held beyond the first and last centres)."""
         hs = residual.shape[0]
         levels = np.empty(hs, np.float32)
         sample = residual[::2, ::max(BACKGROUND_STEP, residual.shape[1] // BACKGROUND_COLUMNS)]
