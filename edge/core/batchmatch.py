@@ -49,23 +49,26 @@ _NO_COST = np.iinfo(np.int64).max  # border padding of the cost squares (never a
 
 
 def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") -> np.ndarray:
-    """Integer cost of each template against every window of its region: (n, h, w) templates,
+    """Integer cost of each template against every window of its region: (n, h, w) uint8 templates,
     (n, H, W) uint8 regions -> (n, H - h + 1, W - w + 1) int64, entry [k, v, u] for the window at row
     v, column u of region k. The same integers as `costs.cost_curve` on each row of windows
-    (SSD = sum T^2 - 2 sum T*R + sum R^2, ZSSD = N SSD - (sum T - sum R)^2), computed in float64
-    on 8-bit data where every partial sum is an integer below 2**53, hence exact."""
-    t = np.asarray(templates, dtype=np.float64)
-    s = regions.astype(np.float64)
-    n_items, h, w = t.shape
-    height, width = s.shape[1:]
+    (SSD = sum T^2 - 2 sum T*R + sum R^2, ZSSD = N SSD - (sum T - sum R)^2), computed in floating
+    point on 8-bit data where every partial sum is an integer the format holds exactly."""
+    n_items, h, w = templates.shape
+    height, width = regions.shape[1:]
     nv, nu = height - h + 1, width - w + 1
     # cross-correlation: one product per item of the template's columns with all its rows of
-    # windows, [k, j] = sum_i T[i, k] R[v + i, j]; the diagonal sums over k give sum T*R at u = j - k
-    rows = sliding_window_view(s, h, axis=1).transpose(0, 3, 1, 2).reshape(n_items, h, nv * width)
-    prod = np.matmul(t.transpose(0, 2, 1), rows).reshape(n_items, w, nv, width)
+    # windows, [k, j] = sum_i T[i, k] R[v + i, j]; the diagonal sums over k give sum T*R at u = j - k.
+    # Every partial sum is an integer <= h w 255^2: float32 holds them exactly up to 2**24 (windows
+    # up to 16 x 16), which halves the product's cost; larger windows take float64
+    exact = np.float32 if h * w * 255 * 255 < 2**24 else np.float64
+    rows = sliding_window_view(regions.astype(exact), h, axis=1).transpose(0, 3, 1, 2)
+    prod = np.matmul(templates.astype(exact).transpose(0, 2, 1), rows.reshape(n_items, h, nv * width))
+    prod = prod.reshape(n_items, w, nv, width)
     cross = prod[:, 0, :, :nu].copy()
     for k in range(1, w):
         cross += prod[:, k, :, k:k + nu]
+    t = templates.astype(np.float64)
     # window sums of R and R^2 from one integral image of the regions stacked (h zero rows below
     # so every item's windows have their bottom corner row); rectangles never cross items
     stacked = np.zeros((n_items * height + h, width), np.uint8)
@@ -75,7 +78,7 @@ def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") 
     bottom = integrals[:, h:h + n_items * height].reshape(2, n_items, height, width + 1)[:, :, :nv]
     rows_sum = bottom - top
     box = rows_sum[..., w:] - rows_sum[..., :-w]                      # (2, n, nv, nu)
-    ssd = (t * t).sum(axis=(1, 2))[:, None, None] - 2.0 * cross + box[1]
+    ssd = (t * t).sum(axis=(1, 2))[:, None, None] - 2.0 * cross.astype(np.float64) + box[1]
     if cost != "ssd":
         diff = t.sum(axis=(1, 2))[:, None, None] - box[0]
         ssd = (h * w) * ssd - diff * diff
