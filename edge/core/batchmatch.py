@@ -96,10 +96,24 @@ def _second_ratios(costs: np.ndarray, iy: np.ndarray, ix: np.ndarray) -> list[fl
     near = ((np.abs(k[None, :] - iy[:, None]) <= 1)[:, :, None]
             & (np.abs(k[None, :] - ix[:, None]) <= 1)[:, None, :])
     is_min &= ~near
-    second = np.where(is_min, c, _NO_COST).reshape(n, -1).min(axis=1).tolist()
-    best = costs[np.arange(n), iy, ix].tolist()
+    return _ratios(c.reshape(n, -1), is_min.reshape(n, -1), costs[np.arange(n), iy, ix].tolist())
+
+
+def _second_ratios_1d(curves: np.ndarray, k0: np.ndarray) -> list[float]:
+    """`match.second_best_ratio` of each (n, m) curve around its k0 (curve ends count as minima)."""
+    n, m = curves.shape
+    is_min = np.ones((n, m), dtype=bool)
+    np.less_equal(curves[:, :-1], curves[:, 1:], out=is_min[:, :-1])
+    is_min[:, 1:] &= curves[:, 1:] <= curves[:, :-1]
+    is_min &= np.abs(np.arange(m)[None, :] - k0[:, None]) > 1
+    return _ratios(curves, is_min, curves[np.arange(n), k0].tolist())
+
+
+def _ratios(costs: np.ndarray, is_min: np.ndarray, best: list[int]) -> list[float]:
+    """Per row: the least cost where is_min, over the best (inf without one; the reference's rules)."""
+    second = np.where(is_min, costs, _NO_COST).min(axis=1).tolist()
     out = []
-    for any_min, sec, b in zip(is_min.reshape(n, -1).any(axis=1).tolist(), second, best, strict=True):
+    for any_min, sec, b in zip(is_min.any(axis=1).tolist(), second, best, strict=True):
         if not any_min:
             out.append(math.inf)
         elif b <= 0:
@@ -153,11 +167,11 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
             iy, ix = np.divmod(flat_best, 2 * r + 1)
             ratios = _second_ratios(costs, iy, ix)
             arith = CostArithmetic("int", "zssd")
-            for j, k in enumerate(keep):
+            for j, (k, v, u) in enumerate(zip(keep, iy.tolist(), ix.tolist(), strict=True)):
                 i, site = fast[k]
                 out[i] = finish_follow(prevs[i], curs[i], site, costs[j], sigmas[j], arith, window=window,
                                        search_radius=search_radius, subpixel=subpixel, min_ratio=min_ratio,
-                                       ratio=ratios[j], curves_from_costs=True)
+                                       best=(v, u), ratio=ratios[j], curves_from_costs=True)
     return out  # type: ignore[return-value]
 
 
@@ -214,11 +228,13 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
         templates = np.stack([lefts[it[0]][it[4] - h:it[4] + h + 1, it[3] - h:it[3] + h + 1] for it in items])
         bands = np.stack([rights[it[0]][it[4] - h:it[4] + h + 1, it[3] - h - it[6]:it[3] + h + 1 - it[5]]
                           for it in items])
-        curves = batch_costs(templates, bands, cost)[:, 0]
-        for it, curve in zip(items, curves, strict=True):
+        curves = batch_costs(templates, bands, cost)[:, 0, ::-1]       # ascending disparity
+        k0s = curves.argmin(axis=1)
+        ratios = _second_ratios_1d(curves, k0s)
+        for it, curve, k0, ratio in zip(items, curves, k0s.tolist(), ratios, strict=True):
             i, xf, yf, xi, yi, lo, _, sigma, texture = it
-            out[i] = finish_match(lefts[i], rights[i], xf, yf, xi, yi, lo, curve[::-1], sigma, texture,
-                                  arith, window=window, subpixel=subpixel, min_ratio=min_ratio)
+            out[i] = finish_match(lefts[i], rights[i], xf, yf, xi, yi, lo, curve, sigma, texture, arith,
+                                  window=window, subpixel=subpixel, min_ratio=min_ratio, k0=k0, ratio=ratio)
     return out  # type: ignore[return-value]
 
 
@@ -244,16 +260,17 @@ def _match_site(left: object, right: object, x: object, y: object, pred: object,
 
 def finish_match(left: np.ndarray, right: np.ndarray, xf: float, yf: float, xi: int, yi: int, lo: int,
                  costs: np.ndarray, sigma: float, texture: float, arith: CostArithmetic, *, window: int,
-                 subpixel: str, min_ratio: float) -> Match:
+                 subpixel: str, min_ratio: float, k0: int | None = None, ratio: float | None = None) -> Match:
     """`match_point` (integer impl) after its integer search, written out as match.py does it:
-    gates, half-pixel border check and `match.refine`. `costs` in ascending disparity from lo.
+    gates, half-pixel border check and `match.refine`. `costs` in ascending disparity from lo;
+    k0 (its first minimum) and ratio (`second_best_ratio`) when the caller has them.
     (match.py keeps this part inline; keep the two in step: the equality test compares them.)"""
     width = left.shape[1]
     h = window // 2
-    k0 = int(np.argmin(costs))
+    k0 = int(np.argmin(costs)) if k0 is None else k0
     d0 = lo + k0
     best = float(costs[k0])
-    ratio = second_best_ratio(costs, k0)
+    ratio = second_best_ratio(costs, k0) if ratio is None else ratio
 
     def invalid(reason: str) -> Match:
         return Match(False, math.nan, best, sigma, reason, disparity_int=d0, second_ratio=ratio,

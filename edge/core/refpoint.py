@@ -162,17 +162,20 @@ def track_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window
 
 def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np.ndarray,
                   sigmas: tuple[float, float], arith: CostArithmetic, *, window: int, search_radius: int,
-                  subpixel: str, min_ratio: float, ratio: float | None = None,
-                  curves_from_costs: bool = False) -> PointTrack:
+                  subpixel: str, min_ratio: float, best: tuple[int, int] | None = None,
+                  ratio: float | None = None, curves_from_costs: bool = False) -> PointTrack:
     """`track_point` after the integer search: validity gates and the separable sub-pixel fits.
 
-    costs[v index, u index] is the (2r+1)^2 cost square; `ratio` its second-best ratio if already
-    known. curves_from_costs: take the parabola fits' 3-point curves from the square (the same
-    integers: ZSSD of the transposed windows is that of the windows) instead of recomputing them."""
+    costs[v index, u index] is the (2r+1)^2 cost square; `best` (the (v, u) index of its first
+    minimum) and `ratio` (its second-best ratio) when already known. curves_from_costs: take the
+    parabola fits' 3-point curves from the square (the same integers: ZSSD of the transposed
+    windows is that of the windows) instead of recomputing them."""
     xf, yf, xi, yi = site.xf, site.yf, site.xi, site.yi
     sx, sy = sigmas
     h, r = window // 2, search_radius
-    iy, ix = (int(i) for i in np.unravel_index(int(np.argmin(costs)), costs.shape))
+    if best is None:
+        best = tuple(int(i) for i in np.unravel_index(int(np.argmin(costs)), costs.shape))
+    iy, ix = best
     if not (0 < iy < 2 * r and 0 < ix < 2 * r):
         return _fail("minimum on the edge of the search square", xf, yf, sx, sy)
     if ratio is None:
@@ -211,8 +214,8 @@ def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np
         return _fail(why_u or why_v, xf, yf, sx, sy)
     u = u_a + abs(ty) * (u_b - u_a)
     v = v_a + abs(tx) * (v_b - v_a)
-    best = float(costs[iy, ix]) * (window * window if arith.is_float else 1)
-    return PointTrack(True, xf + u, yf + v, u, v, best, sx, sy, "")
+    cost = float(costs[iy, ix]) * (window * window if arith.is_float else 1)
+    return PointTrack(True, xf + u, yf + v, u, v, cost, sx, sy, "")
 
 
 def _negated(fit: tuple[float | None, str]) -> tuple[float | None, str]:
