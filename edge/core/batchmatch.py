@@ -99,16 +99,6 @@ def _second_ratios(costs: np.ndarray, iy: np.ndarray, ix: np.ndarray) -> list[fl
     return _ratios(c.reshape(n, -1), is_min.reshape(n, -1), costs[np.arange(n), iy, ix].tolist())
 
 
-def _second_ratios_1d(curves: np.ndarray, k0: np.ndarray) -> list[float]:
-    """`match.second_best_ratio` of each (n, m) curve around its k0 (curve ends count as minima)."""
-    n, m = curves.shape
-    is_min = np.ones((n, m), dtype=bool)
-    np.less_equal(curves[:, :-1], curves[:, 1:], out=is_min[:, :-1])
-    is_min[:, 1:] &= curves[:, 1:] <= curves[:, :-1]
-    is_min &= np.abs(np.arange(m)[None, :] - k0[:, None]) > 1
-    return _ratios(curves, is_min, curves[np.arange(n), k0].tolist())
-
-
 def _ratios(costs: np.ndarray, is_min: np.ndarray, best: list[int]) -> list[float]:
     """Per row: the least cost where is_min, over the best (inf without one; the reference's rules)."""
     second = np.where(is_min, costs, _NO_COST).min(axis=1).tolist()
@@ -210,7 +200,7 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
     rows = np.stack(gathered).astype(np.int32)
     g = rows[:, :, 2:] - rows[:, :, :-2]
     energies = (g * g).sum(axis=(1, 2)).tolist()
-    groups: dict[int, list[tuple]] = defaultdict(list)      # by the number of candidates
+    searches = []
     for (i, xf, yf, xi, yi), g2 in zip(sites, energies, strict=True):
         sigma = noise_dn * math.sqrt(8.0 / g2) if g2 > 0 else math.inf     # sqrt(2 / sum Ix^2)
         if not sigma <= max_sigma_px:
@@ -222,20 +212,57 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
         if hi - lo < 2:
             out[i] = reference(i)
             continue
-        groups[hi - lo + 1].append((i, xf, yf, xi, yi, lo, hi, sigma, g2 / 4.0))
+        searches.append((i, xf, yf, xi, yi, lo, hi, sigma, g2 / 4.0))
     arith = CostArithmetic("int", cost)
-    for items in groups.values():
+    for n, items in _share_curves(searches, [r.shape[1] for r in rights], h).items():
         templates = np.stack([lefts[it[0]][it[4] - h:it[4] + h + 1, it[3] - h:it[3] + h + 1] for it in items])
-        bands = np.stack([rights[it[0]][it[4] - h:it[4] + h + 1, it[3] - h - it[6]:it[3] + h + 1 - it[5]]
-                          for it in items])
-        curves = batch_costs(templates, bands, cost)[:, 0, ::-1]       # ascending disparity
-        k0s = curves.argmin(axis=1)
-        ratios = _second_ratios_1d(curves, k0s)
-        for it, curve, k0, ratio in zip(items, curves, k0s.tolist(), ratios, strict=True):
-            i, xf, yf, xi, yi, lo, _, sigma, texture = it
-            out[i] = finish_match(lefts[i], rights[i], xf, yf, xi, yi, lo, curve, sigma, texture, arith,
-                                  window=window, subpixel=subpixel, min_ratio=min_ratio, k0=k0, ratio=ratio)
+        bands = np.stack([rights[i][yi - h:yi + h + 1, xi - h - start - n + 1:xi + h + 1 - start]
+                          for i, _, _, xi, yi, *_, start in items])
+        curves = batch_costs(templates, bands, cost)[:, 0, ::-1]       # ascending disparity from lo'
+        first = np.array([it[5] - it[9] for it in items])
+        last = np.array([it[6] - it[9] for it in items])
+        k0s, ratios = _curve_minima(curves, first, last)
+        for it, curve, a, k0, ratio in zip(items, curves, first.tolist(), k0s, ratios, strict=True):
+            i, xf, yf, xi, yi, lo, hi, sigma, texture, _ = it
+            out[i] = finish_match(lefts[i], rights[i], xf, yf, xi, yi, lo, curve[a:a + hi - lo + 1], sigma,
+                                  texture, arith, window=window, subpixel=subpixel, min_ratio=min_ratio,
+                                  k0=k0, ratio=ratio)
     return out  # type: ignore[return-value]
+
+
+def _share_curves(searches: list[tuple], widths: list[int], h: int) -> dict[int, list[tuple]]:
+    """Group the searches (i, ..., lo, hi, ...) by the length n of one batched curve each can use:
+    a short range [lo, hi] is widened to n candidates [lo', lo' + n - 1] when its right image holds
+    them and n is at most twice its own (the extra candidates are computed, then ignored), so the
+    usual few range lengths need one product. Items gain lo' at index 9."""
+    groups: dict[int, list[tuple]] = defaultdict(list)
+    for it in sorted(searches, key=lambda it: it[6] - it[5], reverse=True):
+        i, xi, lo, hi = it[0], it[3], it[5], it[6]
+        d_min, d_max = xi + h + 1 - widths[i], xi - h           # candidates inside the right image
+        for n in groups:
+            start = max(d_min, hi - n + 1)
+            if n <= 2 * (hi - lo + 1) and start <= lo and start + n - 1 <= d_max:
+                groups[n].append(it + (start,))
+                break
+        else:
+            groups[hi - lo + 1].append(it + (lo,))
+    return groups
+
+
+def _curve_minima(curves: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[list[int], list[float]]:
+    """First minimum (relative to `first`) and `match.second_best_ratio` of each curve's part
+    [first, last] (its ends count as minima)."""
+    k = np.arange(curves.shape[1])[None, :]
+    inside = (k >= first[:, None]) & (k <= last[:, None])
+    k0 = np.where(inside, curves, _NO_COST).argmin(axis=1)
+    not_above_right = np.ones(curves.shape, dtype=bool)
+    np.less_equal(curves[:, :-1], curves[:, 1:], out=not_above_right[:, :-1])
+    not_above_left = np.ones(curves.shape, dtype=bool)
+    np.less_equal(curves[:, 1:], curves[:, :-1], out=not_above_left[:, 1:])
+    is_min = (inside & (not_above_right | (k == last[:, None])) & (not_above_left | (k == first[:, None]))
+              & (np.abs(k - k0[:, None]) > 1))
+    ratios = _ratios(curves, is_min, curves[np.arange(len(k0)), k0].tolist())
+    return (k0 - first).tolist(), ratios
 
 
 def _match_site(left: object, right: object, x: object, y: object, pred: object,

@@ -7,9 +7,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.core.batchmatch import batch_costs, match_points, track_points
+from edge.core.batchmatch import _share_curves, batch_costs, match_points, track_points
 from edge.core.costs import cost_curve_reference
-from edge.core.match import match_point
+from edge.core.match import match_point, search_range
 from edge.core.refpoint import track_point
 from edge.core.synth import make_scene, render_view, sensor
 
@@ -121,3 +121,22 @@ def test_match_points_fast_path_is_taken_and_exact() -> None:
                        search_radius=None if preds[k] is None else 4) for k in range(24)]
     assert sum(m.valid for m in got) >= 18
     assert repr(got) == repr(ref)
+
+
+def test_match_points_share_one_product_across_range_lengths() -> None:
+    """Predictions near zero clip the search range to different lengths; the short ranges are widened
+    to share a product (fewer groups than lengths) and the results still equal match_point's."""
+    lefts, rights = _views(9, 16)
+    rights = [np.ascontiguousarray(np.roll(r, -3, axis=1)) for r in rights]    # disparities around 3
+    rng = np.random.default_rng(10)
+    xs, ys = rng.uniform(40, 70, 16), rng.uniform(10, 34, 16)
+    preds = [float(p) for p in np.linspace(0.0, 6.0, 16)]
+    got = match_points(lefts, rights, xs, ys, [30] * 16, preds, search_radius=4)
+    ref = [match_point(lefts[k], rights[k], xs[k], ys[k], max_disparity=30, predicted_disparity=preds[k],
+                       search_radius=4) for k in range(16)]
+    assert repr(got) == repr(ref)
+    assert sum(m.valid for m in got) >= 10
+    searches = [(k, 0.0, 0.0, round(xs[k]), 20, lo, hi) for k, lo, hi in
+                [(k, *search_range(round(xs[k]), COLS, 15, 0, 30, preds[k], 4)) for k in range(16)]]
+    lengths = {hi - lo + 1 for *_, lo, hi in searches}
+    assert len(lengths) >= 3 and len(_share_curves(searches, [COLS] * 16, 7)) < len(lengths)
