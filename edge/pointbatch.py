@@ -35,6 +35,8 @@ from edge.core.refpoint import PointTrack, track_point
 if TYPE_CHECKING:
     from edge.trackpoint import PointSettings
 
+BATCH_MIN = 4  # fewer requests of a kind are answered one by one (same results; tools/bench, 1 ship)
+
 
 @dataclass(frozen=True, slots=True)
 class FollowSettings:
@@ -143,7 +145,9 @@ def answer_all(requests: Sequence[Request]) -> list[PointTrack | Match]:
         groups[(type(r), r.settings)].append(i)
     for (kind, s), idx in groups.items():
         rs = [requests[i] for i in idx]
-        if kind is Follow:
+        if len(rs) < BATCH_MIN:                        # too few to repay the batch's fixed cost
+            answers = [r.run() for r in rs]
+        elif kind is Follow:
             answers = track_points([r.prev for r in rs], [r.cur for r in rs], [r.x for r in rs],
                                    [r.y for r in rs], [r.predicted_dx for r in rs], [0.0] * len(rs),
                                    window=s.window, search_radius=s.search_radius, subpixel=s.subpixel,
