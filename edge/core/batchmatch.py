@@ -22,6 +22,7 @@ the per-point function, which gives the reason.
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections import defaultdict
 from collections.abc import Sequence
@@ -46,6 +47,7 @@ from edge.core.match import (
 from edge.core.refpoint import FollowSite, PointTrack, finish_follow, follow_site, texture_sigmas, track_point
 
 _NO_COST = np.iinfo(np.int64).max  # border padding of the cost squares (never a local minimum's rival)
+_MATCH_SUBPIXEL = inspect.signature(match_point).parameters["subpixel"].default  # match_points follows it
 
 
 def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") -> np.ndarray:
@@ -168,12 +170,14 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
 def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: Sequence[float],
                  ys: Sequence[float], max_disparities: Sequence[int],
                  predicted_disparities: Sequence[float | None], *, window: int = 15,
-                 search_radius: int | None = None, cost: str = "zssd", subpixel: str = "cancel",
+                 search_radius: int | None = None, cost: str = "zssd", subpixel: str | None = None,
                  noise_dn: float = 1.0, min_ratio: float = 1.1, max_sigma_px: float = 0.3) -> list[Match]:
     """`match_point(lefts[i], rights[i], xs[i], ys[i], max_disparity=..., predicted_disparity=...)`
     (impl="int", min_disparity=0) for every i, the cost curves batched; bit-identical results.
-    `search_radius` applies to the points that have a prediction (None: match_point's default)."""
+    `search_radius` applies to the points that have a prediction (None: match_point's default);
+    subpixel None is match_point's default method."""
     n = len(lefts)
+    subpixel = _MATCH_SUBPIXEL if subpixel is None else subpixel
 
     def reference(i: int) -> Match:
         pred = predicted_disparities[i]
