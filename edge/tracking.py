@@ -41,6 +41,7 @@ from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
 from edge.fix import TrackStatus
+from edge.pointbatch import step_points
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
@@ -125,9 +126,10 @@ class TrackTable:
              boxes: list[np.ndarray] | None = None) -> list[Track]:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
-        for track in self.tracks:
-            candidates = lambda t=track: self._candidates(left, t.box)  # noqa: E731 (bound per track)
-            alive = track.point.step(left, right, self.rect, skipped, candidates)
+        # every track's follow and match of this pair batched (edge.pointbatch; = point.step per track)
+        steps = [t.point.steps(left, right, self.rect, skipped, lambda t=t: self._candidates(left, t.box))
+                 for t in self.tracks]
+        for track, alive in zip(self.tracks, step_points(steps), strict=True):
             du, dv = track.point.jumped
             if du or dv:  # the point moved to another part of the ship: the ship's box did not
                 track.box_rel -= np.array([du, dv, du, dv])
