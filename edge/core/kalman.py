@@ -58,14 +58,19 @@ real d'', and the sustained-acceleration reading would make sigma ~4x the observ
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from bisect import bisect_left
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.stats import chi2
 
-from edge.core.fixedpoint import AB_BITS, SUBPIX_BITS, VAR_BITS, round_shift, to_q
+from edge.core.fixedpoint import AB_BITS, SUBPIX_BITS, VAR_BITS, div_round, round_shift, to_q
 
 MAX_TABLE = 20000
 Q8_ROUNDING_VAR = 1.0 / (12 * (1 << SUBPIX_BITS) ** 2)   # output rounded to 1/256 px: uniform, var LSB^2/12
+COV_BITS = 36                  # Q36 px^2 covariance tables of the gate (int64 for coasts up to ~10^3 frames)
+START_RISK = 1e-3              # a consistent start is refused (and waits one frame) with this probability
+YOUNG_VAR_RATIO = 2.0          # a track is young while its predicted variance exceeds this x steady state
 
 
 @dataclass(frozen=True)
@@ -88,23 +93,45 @@ class KalmanDesign:
     post_var: np.ndarray       # variance of d after update k
     coast_pred: np.ndarray     # steady-state predicted variance of d after m misses, m = 0..
     coast_post: np.ndarray     # variance of the coasted estimate after m misses
-    gate_q16: tuple[tuple[int, ...], ...]   # [k or coast m] -> (gate_sigma^2 * S) in Q16
-    rewind: tuple[int, ...]    # k to continue with after m misses
+    gate_q16: tuple[tuple[int, ...], ...]   # [k or coast m] -> (gate_sigma^2 * S) in Q16 (steady-state coast)
+    rewind: tuple[int, ...]    # k to continue with after m misses from the steady state
     rho1: float = 1.0          # lag-1 correlation of the steady-state error of d (eq. K.2)
     coverage: float = 1.0      # factor on the random part of sigma_px (eq. K.3); 1 = plain 1-sigma
     accel_lag_px: float = 0.0  # steady-state lag if d'' = sigma_a were sustained (eq. K.4), for reports
+    # posterior covariance after k updates (k = 0: the start, eq. K.5) as (P_dd, 2 P_dv, P_vv), float
+    # and Q36, and the process noise q_j that j predictions add to P_dd (eq. K.6)
+    cov: np.ndarray = field(default_factory=lambda: np.zeros((1, 3)))
+    cov_q36: tuple[tuple[int, int, int], ...] = ()
+    coast_q: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    coast_q_q36: tuple[int, ...] = ()
+    r_q36: int = 0
+    gate2_q8: int = 0          # gate_sigma^2 in Q8
+    pred_env_q36: tuple[int, ...] = ()     # running minimum of pred_var (Q36) for the rewind search
+    start_chi2_q16: int = 0    # eq. K.5: the start's residual sum of squares must stay below this
+    prior_gain_q24: tuple[int, int] = (0, 0)   # the rate prior as a pseudo-measurement v = 0: (g_d, g_v)
+    prior_gain: tuple[float, float] = (0.0, 0.0)
+    young_updates: int = 0     # divergence restart armed while k < young_updates (eq. K.7)
 
     def table_index(self, k: int) -> int:
         return min(k, len(self.alpha) - 1)
 
 
+def _line_fit_cov(n: int) -> np.ndarray:
+    """Covariance / sigma_n^2 of the least-squares line through n consecutive samples, at the last one."""
+    sxx = n * (n * n - 1) / 12.0
+    lag = (n - 1) / 2.0                                   # last sample minus the mean frame
+    return np.array([[1.0 / n + lag * lag / sxx, lag / sxx], [lag / sxx, 1.0 / sxx]])
+
+
 def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, *,
-                  rate_prior_pxps: float = 1.0, sigma_floor_px: float = 0.01, gate_sigma: float = 3.0,
+                  rate_prior_pxps: float | None = None, sigma_floor_px: float = 0.01, gate_sigma: float = 3.0,
                   reacquire_s: float = 3.0, init_samples: int = 5, bound_s: float = 0.0,
                   bound_risk: float = 0.01) -> KalmanDesign:
-    """Run the Riccati recursion of the CV model to its steady state and tabulate it.
+    """Run the Riccati recursion of the CV model from the line-fit start to its steady state and
+    tabulate it.
 
-    rate_prior_pxps: 1-sigma of the disparity rate a new track may have (it starts at v = 0).
+    rate_prior_pxps: None (default) starts from the line fit alone; a value is the 1-sigma of the
+    disparity rate a new track may have, applied to the fit as a pseudo-measurement v = 0.
     sigma_floor_px: systematic error the filter cannot average away (the matcher's sub-pixel
     bias bound); added in quadrature to the reported sigma, not to the gains.
     bound_s, bound_risk: 0 (default) reports the plain 1-sigma. bound_s > 0 scales the random
@@ -112,17 +139,19 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     every estimate of a bound_s long track except with probability bound_risk."""
     if fs_hz <= 0 or sigma_meas_px <= 0 or sigma_accel_pxps2 <= 0:
         raise ValueError("fs_hz, sigma_meas_px and sigma_accel_pxps2 must be positive")
+    if init_samples < 3:
+        raise ValueError("init_samples must be >= 3 (a line fit with a residual test)")
     r = sigma_meas_px**2
     q = (sigma_accel_pxps2 / fs_hz**2) ** 2
     f = np.array([[1.0, 1.0], [0.0, 1.0]])
     qm = q * np.array([[0.25, 0.5], [0.5, 1.0]])
-    # start-up covariance: the median of n samples (variance pi/2 * r/n) belongs to the middle
-    # sample, (n-1)/2 frames ago, and v = 0 with the rate prior
     n = init_samples
-    lag_frames = (n - 1) / 2
-    vv = (rate_prior_pxps / fs_hz) ** 2
-    p = np.array([[np.pi / 2 * r / n + lag_frames**2 * vv, lag_frames * vv], [lag_frames * vv, vv]])
-    p0_dd = float(p[0, 0])
+    p = r * _line_fit_cov(n)                                 # eq. K.5
+    gain = np.zeros(2)
+    if rate_prior_pxps is not None:
+        gain = p[:, 1] / (p[1, 1] + (rate_prior_pxps / fs_hz) ** 2)
+        p = p - np.outer(gain, p[1, :])
+    cov = [p.copy()]
     alpha, beta, pred, post = [], [], [], []
     for _ in range(MAX_TABLE):
         pp = f @ p @ f.T + qm
@@ -133,6 +162,7 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
         beta.append(k[1])
         pred.append(pp[0, 0])
         post.append(p[0, 0])
+        cov.append(p.copy())
         if len(alpha) > 10 and abs(alpha[-1] - alpha[-2]) < 1e-10 * alpha[-1] and \
                 abs(beta[-1] - beta[-2]) < 1e-10 * beta[-1]:
             break
@@ -160,12 +190,22 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     g2 = gate_sigma**2
     gate_k = tuple(to_q(g2 * (pv + r), VAR_BITS) for pv in pred)
     gate_m = tuple(to_q(g2 * (cp + r), VAR_BITS) for cp in coast_pred)
+    # eq. K.6: j predictions after update k: P_dd + 2 j P_dv + j^2 P_vv + q sum_{i<j} (i + 1/2)^2
+    cov3 = np.array([[c[0, 0], 2 * c[0, 1], c[1, 1]] for c in cov])
+    coast_q = q * np.concatenate([[0.0], np.cumsum((np.arange(reacquire + 2) + 0.5) ** 2)])
+    young = int(np.argmax(pred_arr <= YOUNG_VAR_RATIO * pred_arr[-1]))          # eq. K.7
+    chi2_lim = float(chi2.isf(START_RISK, n - 2)) * r
     return KalmanDesign(fs_hz, sigma_meas_px, sigma_accel_pxps2, sigma_floor_px, gate_sigma, reacquire,
-                        init_samples, p0_dd,
+                        init_samples, float(cov3[0, 0]),
                         np.array(alpha), np.array(beta), tuple(to_q(a, AB_BITS) for a in alpha),
                         tuple(to_q(b, AB_BITS) for b in beta), pred_arr, np.array(post),
                         np.array(coast_pred), np.array(coast_post), (gate_k, gate_m), rewind,
-                        rho1, coverage, float(accel_lag))
+                        rho1, coverage, float(accel_lag),
+                        cov3, tuple(tuple(to_q(x, COV_BITS) for x in c) for c in cov3),
+                        coast_q, tuple(to_q(x, COV_BITS) for x in coast_q), to_q(r, COV_BITS),
+                        to_q(g2, 8), tuple(to_q(x, COV_BITS) for x in np.minimum.accumulate(pred_arr)),
+                        to_q(chi2_lim, VAR_BITS), (to_q(gain[0], AB_BITS), to_q(gain[1], AB_BITS)),
+                        (float(gain[0]), float(gain[1])), young)
 
 
 @dataclass(frozen=True)
@@ -187,6 +227,7 @@ class _CVFilter(ABC):
     def __init__(self, design: KalmanDesign) -> None:
         self.design = design
         self._init: list[tuple[int, object]] = []     # (frame, measurement) while (re)starting
+        self._gated: list[tuple[int, object]] = []    # gated samples since the last accepted one
         self._frame = 0
         self.k = 0
         self.misses = 0
@@ -198,16 +239,17 @@ class _CVFilter(ABC):
         """Measurement in the filter's number format."""
 
     @abstractmethod
-    def _start(self, samples: list[tuple[int, object]]) -> None:
-        """Initialise d to the median of the (frame, measurement) samples and v to 0."""
+    def _fit(self, samples: list[tuple[int, object]]) -> int | None:
+        """Line fit through the (frame, measurement) samples, eq. K.5: set d (at the last frame)
+        and v and return None if the residuals are consistent, else the index of the worst one."""
 
     @abstractmethod
     def _predict(self) -> None:
         """d += v."""
 
     @abstractmethod
-    def _gate(self, z: object) -> tuple[object, bool]:
-        """(residual, inside the gate)."""
+    def _residual(self, z: object) -> tuple[object, int]:
+        """(residual, its square in Q16 px^2)."""
 
     @abstractmethod
     def _correct(self, residual: object, k: int) -> None:
@@ -216,6 +258,16 @@ class _CVFilter(ABC):
     @abstractmethod
     def _output(self, accepted: bool) -> Estimate:
         """The current estimate."""
+
+    def _try_start(self, samples: list[tuple[int, object]]) -> bool:
+        """(Re)start from the samples if they lie on a line; else drop the worst one."""
+        worst = self._fit(samples)
+        if worst is not None:
+            del samples[worst]
+            return False
+        self.running, self.k, self.misses = True, 0, 0
+        self._init, self._gated = [], []
+        return True
 
     def update(self, z_px: float | None) -> Estimate:
         """One frame: a disparity measurement in px, or None/NaN when the matcher had none."""
@@ -226,45 +278,59 @@ class _CVFilter(ABC):
             if have:
                 self._init.append((self._frame, self._quantise(float(z_px))))
                 self._init = self._init[-d.init_samples:]
-            if len(self._init) < d.init_samples:
+            if len(self._init) < d.init_samples or not self._try_start(self._init):
                 return Estimate(False, float("nan"), float("nan"), float("inf"), have, 0)
-            self._start(self._init)
-            self._init = []
-            self.running, self.k, self.misses = True, 0, 0
             return self._output(True)
         self._predict()
         accepted = False
         if have:
-            residual, inside = self._gate(self._quantise(float(z_px)))
-            if inside:
+            z = self._quantise(float(z_px))
+            residual, r2_q16 = self._residual(z)
+            if r2_q16 <= self._gate_threshold_q16():
                 if self.misses:
-                    self.k = min(self.k, d.rewind[min(self.misses, len(d.rewind) - 1)])
+                    self.k = min(self.k, self._rewind())
                 self._correct(residual, d.table_index(self.k))
                 self.k += 1
                 self.misses = 0
+                self._gated = []
                 accepted = True
+            elif self.k < d.young_updates:
+                # eq. K.7: a young track whose gate refuses n samples that lie on a line restarts on them
+                self._gated.append((self._frame, z))
+                if len(self._gated) == d.init_samples and self._try_start(self._gated):
+                    return self._output(True)
         if not accepted:
             self.misses += 1
             if self.misses > d.reacquire_frames:
                 self.running = False
-                self._init = []
+                self._init, self._gated = [], []
                 return Estimate(False, float("nan"), float("nan"), float("inf"), False, self.misses)
         return self._output(accepted)
 
-    def _gate_threshold_q16(self) -> int:
+    def _coast_var_q36(self) -> int:
+        """Predicted variance of d (Q36 px^2) for the coming update, eq. K.6: j = misses + 1
+        predictions after the k-th update, from the covariance of update k (not the steady state)."""
         d = self.design
-        if self.misses:
-            m = min(self.misses, len(d.gate_q16[1]) - 1)
-            return max(d.gate_q16[1][m], d.gate_q16[0][d.table_index(self.k)])
-        return d.gate_q16[0][d.table_index(self.k)]
+        pdd, pdv2, pvv = d.cov_q36[min(self.k, len(d.cov_q36) - 1)]
+        j = self.misses + 1
+        return pdd + j * pdv2 + j * j * pvv + d.coast_q_q36[min(j, len(d.coast_q_q36) - 1)]
+
+    def _gate_threshold_q16(self) -> int:
+        """gate_sigma^2 S in Q16 px^2, S the innovation variance of the coming update (eq. K.6)."""
+        d = self.design
+        return round_shift(d.gate2_q8 * (self._coast_var_q36() + d.r_q36), COV_BITS + 8 - VAR_BITS)
+
+    def _rewind(self) -> int:
+        """The first k whose predicted variance is no larger than the coasted one."""
+        c = self._coast_var_q36()
+        return bisect_left(self.design.pred_env_q36, -c, key=lambda x: -x)
 
     def sigma_px(self) -> float:
-        """Predicted 1-sigma of the current estimate (grows while coasting)."""
+        """Predicted 1-sigma of the current estimate (grows while coasting, eq. K.6)."""
         d = self.design
-        var = d.post_var[d.table_index(self.k - 1)] if self.k else d.start_var
-        if self.misses:
-            m = min(self.misses, len(d.coast_post) - 1)
-            var += d.coast_post[m] - d.coast_post[0]
+        pdd, pdv2, pvv = d.cov[min(self.k, len(d.cov) - 1)]
+        m = self.misses
+        var = pdd + m * pdv2 + m * m * pvv + d.coast_q[min(m, len(d.coast_q) - 1)]
         # eq. K.1: random part (times the coverage factor, eq. K.3), bias floor, Q8 output rounding
         var = d.coverage**2 * var + d.sigma_floor_px**2 + Q8_ROUNDING_VAR
         return float(np.sqrt(var))
@@ -281,19 +347,31 @@ class DisparityKalman(_CVFilter):
     def _quantise(self, z_px: float) -> int:
         return to_q(z_px, SUBPIX_BITS)
 
-    def _start(self, samples: list[tuple[int, object]]) -> None:
-        z = sorted(int(s[1]) for s in samples)
-        mid = len(z) // 2
-        median_q8 = z[mid] if len(z) % 2 else round_shift(z[mid - 1] + z[mid], 1)
-        self.d_q24, self.v_q24 = median_q8 << (AB_BITS - SUBPIX_BITS), 0
+    def _fit(self, samples: list[tuple[int, object]]) -> int | None:
+        # u_i = n t_i - sum t (integer), slope = n sum(u z) / sum(u^2), d at the last frame (eq. K.5)
+        n, t_last = len(samples), samples[-1][0]
+        t_sum = sum(t for t, _ in samples)
+        z_sum = sum(int(z) for _, z in samples)
+        uu = sum((n * t - t_sum) ** 2 for t, _ in samples)
+        uz = sum((n * t - t_sum) * int(z) for t, z in samples)
+        shift = AB_BITS - SUBPIX_BITS
+        v = div_round((n * uz) << shift, uu)                                              # Q24 px/frame
+        dl = div_round((z_sum << shift) + v * (n * t_last - t_sum), n)                      # Q24 px
+        res = [round_shift((int(z) << shift) - dl - v * (t - t_last), shift) for t, z in samples]   # Q8
+        if sum(e * e for e in res) > self.design.start_chi2_q16:
+            return max(range(n), key=lambda i: abs(res[i]))
+        gd, gv = self.design.prior_gain_q24
+        self.d_q24 = dl - round_shift(gd * v, AB_BITS)
+        self.v_q24 = v - round_shift(gv * v, AB_BITS)
+        return None
 
     def _predict(self) -> None:
         self.d_q24 += self.v_q24
 
-    def _gate(self, z: object) -> tuple[int, bool]:
+    def _residual(self, z: object) -> tuple[int, int]:
         residual = (int(z) << (AB_BITS - SUBPIX_BITS)) - self.d_q24                      # Q24
         r_q8 = round_shift(residual, AB_BITS - SUBPIX_BITS)
-        return residual, r_q8 * r_q8 <= self._gate_threshold_q16()                          # Q16
+        return residual, r_q8 * r_q8                                                        # Q16
 
     def _correct(self, residual: object, k: int) -> None:
         r = int(residual)
@@ -317,15 +395,25 @@ class DisparityKalmanFloat(_CVFilter):
     def _quantise(self, z_px: float) -> float:
         return to_q(z_px, SUBPIX_BITS) / float(1 << SUBPIX_BITS)     # the same Q8 input
 
-    def _start(self, samples: list[tuple[int, object]]) -> None:
-        self.d, self.v = float(np.median([float(s[1]) for s in samples])), 0.0
+    def _fit(self, samples: list[tuple[int, object]]) -> int | None:
+        t = np.array([s[0] for s in samples], dtype=float)
+        z = np.array([float(s[1]) for s in samples])
+        tc = t - t.mean()
+        v = float(tc @ z / (tc @ tc))
+        dl = float(z.mean() + v * (t[-1] - t.mean()))
+        res = z - dl - v * (t - t[-1])
+        if float(res @ res) * (1 << VAR_BITS) > self.design.start_chi2_q16:
+            return int(np.argmax(np.abs(res)))
+        gd, gv = self.design.prior_gain
+        self.d, self.v = dl - gd * v, v - gv * v
+        return None
 
     def _predict(self) -> None:
         self.d += self.v
 
-    def _gate(self, z: object) -> tuple[float, bool]:
+    def _residual(self, z: object) -> tuple[float, float]:
         residual = float(z) - self.d
-        return residual, residual * residual * (1 << VAR_BITS) <= self._gate_threshold_q16()
+        return residual, residual * residual * (1 << VAR_BITS)
 
     def _correct(self, residual: object, k: int) -> None:
         self.d += self.design.alpha[k] * float(residual)
