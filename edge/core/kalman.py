@@ -1,6 +1,6 @@
 """Default disparity filter: constant-velocity Kalman on disparity as a table-driven alpha-beta
 filter in Q24 fixed point, with a float reference, a 3-sigma innovation gate, coasting,
-re-acquisition after a gap and a robust start (research note §2.3).
+re-acquisition after a gap and a robust line-fit start (research note §2.3).
 
 Why: the Butterworth (eq. 6.1) lags an approaching ship by tau * d' and passes outliers; a CV
 model has no ramp lag, and gating on the innovation drops glints and fog jumps (note §2.4).
@@ -15,16 +15,41 @@ shifts integers:
 
     predict   d += v                                   (Q24 px, Q24 px/frame; int64)
     residual  r = z - d                                (z in Q8 px, shifted to Q24)
-    gate      r^2 > 9 S  ->  reject and coast          (S from the table, grown while coasting)
+    gate      r^2 > 9 S  ->  reject and coast          (S from the tables, eq. K.6)
     correct   d += alpha_k r,  v += beta_k r           (Q24 x Q24 -> round-shift 24)
 
 Missing or gated samples coast on the prediction; the gate and the reported sigma grow with
 the coast count m. The first sample accepted after m misses rewinds k to the table entry whose
 predicted variance matches the coasted one, so the filter re-converges like a Kalman filter
-whose covariance grew. After `reacquire_s` of misses the track restarts. (Re)starts take the
-median of `init_samples` samples for d (so one outlier among them cannot lock the gate onto
-itself) and v = 0 with a rate prior in the start covariance: a 5-sample slope is noise at
-30 fps (sigma 0.03 px/frame for 0.1 px samples), larger than the rates it would estimate.
+whose covariance grew. After `reacquire_s` of misses the track restarts.
+
+Start-up (the cause of ~1 lost lock in 2000 starts at 10 fps, measured, before this design): the
+start was the median of 5 samples with v = 0 and a 1 px/s rate prior, so the first residuals were
+read as velocity (beta_0 = 0.29), and the gate of a coasting young track was the *steady-state*
+coast, far below the un-converged covariance. A noise run in the first updates then drove v off,
+the gate refused the truth and the estimate ran away until the 3 s re-acquisition; a fast boat
+(2.5 px/s) lost lock at one start in 10. Now:
+
+(Re)starts fit a least-squares line to `init_samples` = n samples: d at the last one, v its slope
+(unbiased for any rate), covariance for n consecutive frames, l = (n - 1)/2, Sxx = n (n^2 - 1)/12,
+
+    P_0 = sigma_n^2 [[1/n + l^2/Sxx, l/Sxx], [l/Sxx, 1/Sxx]]     (n = 5: 0.6, 0.2, 0.1)    (eq. K.5)
+
+and only if the residuals are consistent, sum e^2 <= chi2_{n-2}(1 - 10^-3) sigma_n^2; otherwise
+the worst sample is dropped and the start waits for the next one (one outlier, >= 10 sigma, cannot
+lock the gate onto itself). An optional rate prior enters as a pseudo-measurement v = 0.
+The gate uses the innovation variance of the time-varying filter, j = m + 1 predictions after
+update k, from the tabulated posterior covariance P_k (not the steady state):
+
+    S = P_dd + 2 j P_dv + j^2 P_vv + q sum_{i<j} (i + 1/2)^2 + sigma_n^2    (Q36 tables)   (eq. K.6)
+
+A track is *young* while its predicted variance exceeds twice the steady state (its gains still
+come from the start). When a young track's gate refuses n samples in a row that pass the start's
+line test, it restarts on them (the truth, where the state ran off) instead of waiting 3 s. A
+locked track does this only after n consecutive refusals, each with probability p_g = outlier
+rate + 2 Phi(-3) (0.023 in the track test), i.e. p_g^n = 6e-9 per frame for n = 5 (n = 3: 1e-5)
+before the line test; a mature track never does (a glint burst is as self-consistent as the
+truth, and must stay gated).                                                              (eq. K.7)
 
 Reported sigma (`sigma_px`), every term from the design:
 
@@ -59,7 +84,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from bisect import bisect_left
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import chi2
@@ -91,26 +116,22 @@ class KalmanDesign:
     beta_q24: tuple[int, ...]
     pred_var: np.ndarray       # predicted variance of d before update k (px^2)
     post_var: np.ndarray       # variance of d after update k
-    coast_pred: np.ndarray     # steady-state predicted variance of d after m misses, m = 0..
-    coast_post: np.ndarray     # variance of the coasted estimate after m misses
-    gate_q16: tuple[tuple[int, ...], ...]   # [k or coast m] -> (gate_sigma^2 * S) in Q16 (steady-state coast)
-    rewind: tuple[int, ...]    # k to continue with after m misses from the steady state
+    # posterior covariance after k updates (k = 0: the start, eq. K.5) as (P_dd, 2 P_dv, P_vv), float
+    # and Q36, and the process noise q_j that j predictions add to P_dd (eq. K.6)
+    cov: np.ndarray
+    cov_q36: tuple[tuple[int, int, int], ...]
+    coast_q: np.ndarray
+    coast_q_q36: tuple[int, ...]
+    r_q36: int
+    gate2_q8: int              # gate_sigma^2 in Q8
+    pred_env_q36: tuple[int, ...]          # running minimum of pred_var (Q36) for the rewind search
+    start_chi2_q16: int        # eq. K.5: the start's residual sum of squares must stay below this
+    prior_gain_q24: tuple[int, int]        # the rate prior as a pseudo-measurement v = 0: (g_d, g_v)
+    prior_gain: tuple[float, float]
+    young_updates: int         # restart on consistent gated samples armed while k < young_updates (eq. K.7)
     rho1: float = 1.0          # lag-1 correlation of the steady-state error of d (eq. K.2)
     coverage: float = 1.0      # factor on the random part of sigma_px (eq. K.3); 1 = plain 1-sigma
     accel_lag_px: float = 0.0  # steady-state lag if d'' = sigma_a were sustained (eq. K.4), for reports
-    # posterior covariance after k updates (k = 0: the start, eq. K.5) as (P_dd, 2 P_dv, P_vv), float
-    # and Q36, and the process noise q_j that j predictions add to P_dd (eq. K.6)
-    cov: np.ndarray = field(default_factory=lambda: np.zeros((1, 3)))
-    cov_q36: tuple[tuple[int, int, int], ...] = ()
-    coast_q: np.ndarray = field(default_factory=lambda: np.zeros(1))
-    coast_q_q36: tuple[int, ...] = ()
-    r_q36: int = 0
-    gate2_q8: int = 0          # gate_sigma^2 in Q8
-    pred_env_q36: tuple[int, ...] = ()     # running minimum of pred_var (Q36) for the rewind search
-    start_chi2_q16: int = 0    # eq. K.5: the start's residual sum of squares must stay below this
-    prior_gain_q24: tuple[int, int] = (0, 0)   # the rate prior as a pseudo-measurement v = 0: (g_d, g_v)
-    prior_gain: tuple[float, float] = (0.0, 0.0)
-    young_updates: int = 0     # divergence restart armed while k < young_updates (eq. K.7)
 
     def table_index(self, k: int) -> int:
         return min(k, len(self.alpha) - 1)
@@ -167,15 +188,7 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
                 abs(beta[-1] - beta[-2]) < 1e-10 * beta[-1]:
             break
     reacquire = max(1, int(round(reacquire_s * fs_hz)))
-    coast_pred, coast_post = [pred[-1]], [post[-1]]
-    pc = p.copy()                                   # steady-state posterior
-    for _ in range(reacquire + 1):
-        pc = f @ pc @ f.T + qm
-        coast_post.append(pc[0, 0])
-        coast_pred.append((f @ pc @ f.T + qm)[0, 0])
     pred_arr = np.array(pred)
-    # after m misses continue at the first k whose predicted variance is <= the coasted one
-    rewind = tuple(int(np.argmax(pred_arr <= cp)) if cp < pred_arr[0] else 0 for cp in coast_pred)
     # eq. K.2: steady-state error e' = (I - K H) F e + ..., so E[e'_d e_d] = ((I - K H) F P)_dd
     i_kh = np.eye(2) - np.outer([alpha[-1], beta[-1]], [1.0, 0.0])
     rho1 = float(np.clip((i_kh @ f @ p)[0, 0] / p[0, 0], -1.0, 1.0))
@@ -188,24 +201,20 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     # eq. K.4: a sustained d'' = a leaves the alpha-beta filter a T^2 (1 - alpha) / beta behind
     accel_lag = sigma_accel_pxps2 / fs_hz**2 * (1.0 - alpha[-1]) / beta[-1]
     g2 = gate_sigma**2
-    gate_k = tuple(to_q(g2 * (pv + r), VAR_BITS) for pv in pred)
-    gate_m = tuple(to_q(g2 * (cp + r), VAR_BITS) for cp in coast_pred)
     # eq. K.6: j predictions after update k: P_dd + 2 j P_dv + j^2 P_vv + q sum_{i<j} (i + 1/2)^2
     cov3 = np.array([[c[0, 0], 2 * c[0, 1], c[1, 1]] for c in cov])
     coast_q = q * np.concatenate([[0.0], np.cumsum((np.arange(reacquire + 2) + 0.5) ** 2)])
     young = int(np.argmax(pred_arr <= YOUNG_VAR_RATIO * pred_arr[-1]))          # eq. K.7
     chi2_lim = float(chi2.isf(START_RISK, n - 2)) * r
     return KalmanDesign(fs_hz, sigma_meas_px, sigma_accel_pxps2, sigma_floor_px, gate_sigma, reacquire,
-                        init_samples, float(cov3[0, 0]),
-                        np.array(alpha), np.array(beta), tuple(to_q(a, AB_BITS) for a in alpha),
-                        tuple(to_q(b, AB_BITS) for b in beta), pred_arr, np.array(post),
-                        np.array(coast_pred), np.array(coast_post), (gate_k, gate_m), rewind,
-                        rho1, coverage, float(accel_lag),
-                        cov3, tuple(tuple(to_q(x, COV_BITS) for x in c) for c in cov3),
-                        coast_q, tuple(to_q(x, COV_BITS) for x in coast_q), to_q(r, COV_BITS),
-                        to_q(g2, 8), tuple(to_q(x, COV_BITS) for x in np.minimum.accumulate(pred_arr)),
+                        init_samples, float(cov3[0, 0]), np.array(alpha), np.array(beta),
+                        tuple(to_q(a, AB_BITS) for a in alpha), tuple(to_q(b, AB_BITS) for b in beta),
+                        pred_arr, np.array(post), cov3,
+                        tuple(tuple(to_q(x, COV_BITS) for x in c) for c in cov3),
+                        coast_q, tuple(to_q(x, COV_BITS) for x in coast_q), to_q(r, COV_BITS), to_q(g2, 8),
+                        tuple(to_q(x, COV_BITS) for x in np.minimum.accumulate(pred_arr)),
                         to_q(chi2_lim, VAR_BITS), (to_q(gain[0], AB_BITS), to_q(gain[1], AB_BITS)),
-                        (float(gain[0]), float(gain[1])), young)
+                        (float(gain[0]), float(gain[1])), young, rho1, coverage, float(accel_lag))
 
 
 @dataclass(frozen=True)
@@ -239,9 +248,13 @@ class _CVFilter(ABC):
         """Measurement in the filter's number format."""
 
     @abstractmethod
-    def _fit(self, samples: list[tuple[int, object]]) -> int | None:
-        """Line fit through the (frame, measurement) samples, eq. K.5: set d (at the last frame)
-        and v and return None if the residuals are consistent, else the index of the worst one."""
+    def _line(self, samples: list[tuple[int, object]]) -> tuple[object, object, float]:
+        """Least-squares line through the (frame, measurement) samples (eq. K.5): d at the last
+        frame, slope v, residual sum of squares in Q16 px^2."""
+
+    @abstractmethod
+    def _set_start(self, d_last: object, v: object) -> None:
+        """State from the line fit, with the rate prior's pseudo-measurement v = 0 if any."""
 
     @abstractmethod
     def _predict(self) -> None:
@@ -260,11 +273,16 @@ class _CVFilter(ABC):
         """The current estimate."""
 
     def _try_start(self, samples: list[tuple[int, object]]) -> bool:
-        """(Re)start from the samples if they lie on a line; else drop the worst one."""
-        worst = self._fit(samples)
-        if worst is not None:
-            del samples[worst]
+        """(Re)start from the samples if they lie on a line (eq. K.5); else drop the one whose
+        removal leaves a line (the largest residual can be a good sample next to an outlier), or,
+        if there is none (two outliers), the oldest."""
+        d_last, v, sse = self._line(samples)
+        if sse > self.design.start_chi2_q16:
+            loo = [self._line(samples[:i] + samples[i + 1:])[2] for i in range(len(samples))]
+            best = min(range(len(samples)), key=loo.__getitem__)
+            del samples[best if loo[best] <= self.design.start_chi2_q16 else 0]
             return False
+        self._set_start(d_last, v)
         self.running, self.k, self.misses = True, 0, 0
         self._init, self._gated = [], []
         return True
@@ -347,7 +365,7 @@ class DisparityKalman(_CVFilter):
     def _quantise(self, z_px: float) -> int:
         return to_q(z_px, SUBPIX_BITS)
 
-    def _fit(self, samples: list[tuple[int, object]]) -> int | None:
+    def _line(self, samples: list[tuple[int, object]]) -> tuple[int, int, int]:
         # u_i = n t_i - sum t (integer), slope = n sum(u z) / sum(u^2), d at the last frame (eq. K.5)
         n, t_last = len(samples), samples[-1][0]
         t_sum = sum(t for t, _ in samples)
@@ -358,12 +376,12 @@ class DisparityKalman(_CVFilter):
         v = div_round((n * uz) << shift, uu)                                              # Q24 px/frame
         dl = div_round((z_sum << shift) + v * (n * t_last - t_sum), n)                      # Q24 px
         res = [round_shift((int(z) << shift) - dl - v * (t - t_last), shift) for t, z in samples]   # Q8
-        if sum(e * e for e in res) > self.design.start_chi2_q16:
-            return max(range(n), key=lambda i: abs(res[i]))
+        return dl, v, sum(e * e for e in res)                                               # Q16
+
+    def _set_start(self, d_last: object, v: object) -> None:
         gd, gv = self.design.prior_gain_q24
-        self.d_q24 = dl - round_shift(gd * v, AB_BITS)
-        self.v_q24 = v - round_shift(gv * v, AB_BITS)
-        return None
+        self.d_q24 = int(d_last) - round_shift(gd * int(v), AB_BITS)
+        self.v_q24 = int(v) - round_shift(gv * int(v), AB_BITS)
 
     def _predict(self) -> None:
         self.d_q24 += self.v_q24
@@ -395,18 +413,18 @@ class DisparityKalmanFloat(_CVFilter):
     def _quantise(self, z_px: float) -> float:
         return to_q(z_px, SUBPIX_BITS) / float(1 << SUBPIX_BITS)     # the same Q8 input
 
-    def _fit(self, samples: list[tuple[int, object]]) -> int | None:
+    def _line(self, samples: list[tuple[int, object]]) -> tuple[float, float, float]:
         t = np.array([s[0] for s in samples], dtype=float)
         z = np.array([float(s[1]) for s in samples])
         tc = t - t.mean()
         v = float(tc @ z / (tc @ tc))
         dl = float(z.mean() + v * (t[-1] - t.mean()))
         res = z - dl - v * (t - t[-1])
-        if float(res @ res) * (1 << VAR_BITS) > self.design.start_chi2_q16:
-            return int(np.argmax(np.abs(res)))
+        return dl, v, float(res @ res) * (1 << VAR_BITS)
+
+    def _set_start(self, d_last: object, v: object) -> None:
         gd, gv = self.design.prior_gain
-        self.d, self.v = dl - gd * v, v - gv * v
-        return None
+        self.d, self.v = float(d_last) - gd * float(v), float(v) - gv * float(v)
 
     def _predict(self) -> None:
         self.d += self.v

@@ -139,7 +139,7 @@ def test_gate_coast_and_reacquire() -> None:
     gap = [f.update(None) for _ in range(31)]       # > 3 s without measurements: restart
     assert gap[-1].misses == 31 and not gap[-1].valid
     restart = [f.update(float(z)) for z in [35.0, 35.1, 48.0, 34.9, 35.0, 35.05]]  # one outlier among six
-    assert [e.valid for e in restart] == [False] * 5 + [True]      # the outlier fails the line fit, is dropped
+    assert [e.valid for e in restart] == [False] * 5 + [True]     # the outlier fails the line fit: dropped
     assert abs(restart[-1].disparity_px - 35.0) < 0.11
 
 
