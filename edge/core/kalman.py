@@ -9,14 +9,15 @@ The model (per-frame units, v in px/frame): x = [d, v], F = [[1, 1], [0, 1]], wh
 acceleration with Q = q [[1/4, 1/2], [1/2, 1]], q = (sigma_a T^2)^2, measurement R = sigma_n^2.
 Its covariance does not depend on the data, so `design_kalman` runs the Riccati recursion
 once, in float, from the start-up covariance to the steady state and stores the gains
-alpha_k, beta_k (Q24) and variances (Q16 px^2) as integer tables indexed by k, the number of
+alpha_k, beta_k (Q24) and covariances (Q36 px^2) as integer tables indexed by k, the number of
 accepted updates since (re)initialisation. The filter itself then only adds, multiplies and
-shifts integers:
+shifts integers (and divides twice per start):
 
     predict   d += v                                   (Q24 px, Q24 px/frame; int64)
     residual  r = z - d                                (z in Q8 px, shifted to Q24)
     gate      r^2 > 9 S  ->  reject and coast          (S from the tables, eq. K.6)
     correct   d += alpha_k r,  v += beta_k r           (Q24 x Q24 -> round-shift 24)
+    start     line through n samples, eq. K.5          (integer sums, two rounded divisions)
 
 Missing or gated samples coast on the prediction; the gate and the reported sigma grow with
 the coast count m. The first sample accepted after m misses rewinds k to the table entry whose
