@@ -24,27 +24,31 @@ the coast count m. The first sample accepted after m misses rewinds k to the tab
 predicted variance matches the coasted one, so the filter re-converges like a Kalman filter
 whose covariance grew. After `reacquire_s` of misses the track restarts.
 
-Start-up (the cause of ~1 lost lock in 2000 starts at 10 fps, measured, before this design): the
-start was the median of 5 samples with v = 0 and a 1 px/s rate prior, so the first residuals were
-read as velocity (beta_0 = 0.29), and the gate of a coasting young track was the *steady-state*
-coast, far below the un-converged covariance. A noise run in the first updates then drove v off,
-the gate refused the truth and the estimate ran away until the 3 s re-acquisition; a fast boat
-(2.5 px/s) lost lock at one start in 10. Now:
+Start-up, and why it changed (bench-core's start-up lock-loss table: 10 000 starts, 2 % outliers,
+lost = off by > 5 sigma_n or no estimate in the 3 s after the start): the start was the median of
+5 samples with v = 0 and a 1 px/s rate prior, so the first residuals were read as velocity
+(beta_0 = 0.29 at 10 fps) and a ramp left it lagging, while the gate of a coasting young track was
+the *steady-state* coast, far below its un-converged covariance. A noise run in the first updates
+(or a fast boat's rate) drove the state off, the gate refused the truth and the estimate ran away
+until the 3 s re-acquisition: 10 and 828 of 10 000 starts lost (ship / fast boat, 10 fps), 0 and
+202 at 30 fps. Now none (0 of 10 000 in each row), from three changes:
 
-(Re)starts fit a least-squares line to `init_samples` = n samples: d at the last one, v its slope
+1. (Re)starts fit a least-squares line to `init_samples` = n samples: d at the last one, v its slope
 (unbiased for any rate), covariance for n consecutive frames, l = (n - 1)/2, Sxx = n (n^2 - 1)/12,
 
     P_0 = sigma_n^2 [[1/n + l^2/Sxx, l/Sxx], [l/Sxx, 1/Sxx]]     (n = 5: 0.6, 0.2, 0.1)    (eq. K.5)
 
 and only if the residuals are consistent, sum e^2 <= chi2_{n-2}(1 - 10^-3) sigma_n^2; otherwise
-the worst sample is dropped and the start waits for the next one (one outlier, >= 10 sigma, cannot
-lock the gate onto itself). An optional rate prior enters as a pseudo-measurement v = 0.
-The gate uses the innovation variance of the time-varying filter, j = m + 1 predictions after
+the sample whose removal leaves a line (the oldest if none does) is dropped and the start waits
+for the next one: an outlier (>= 10 sigma) cannot lock the gate onto itself. The price: d starts
+at 0.6 sigma_n^2 instead of the median's ~0.3 (plus its lag). An optional rate prior enters as a
+pseudo-measurement v = 0.
+2. The gate uses the innovation variance of the time-varying filter, j = m + 1 predictions after
 update k, from the tabulated posterior covariance P_k (not the steady state):
 
     S = P_dd + 2 j P_dv + j^2 P_vv + q sum_{i<j} (i + 1/2)^2 + sigma_n^2    (Q36 tables)   (eq. K.6)
 
-A track is *young* while its predicted variance exceeds twice the steady state (its gains still
+3. A track is *young* while its predicted variance exceeds twice the steady state (its gains still
 come from the start). When a young track's gate refuses n samples in a row that pass the start's
 line test, it restarts on them (the truth, where the state ran off) instead of waiting 3 s. A
 locked track does this only after n consecutive refusals, each with probability p_g = outlier
@@ -56,9 +60,9 @@ Reported sigma (`sigma_px`), every term from the design:
 
     sigma^2 = c^2 (P_k + C_m - C_0) + sigma_floor^2 + LSB^2 / 12                        (eq. K.1)
 
-P_k the Riccati variance of d after update k, C_m the coasted variance after m misses (both
-tabulated), sigma_floor the matcher's sub-pixel bias bound (a systematic error the filter passes
-at DC gain 1), LSB^2/12 the Q8 rounding of the output, c the coverage factor (1 by default).
+P_k + C_m - C_0 the variance of d coasted m frames from the covariance of update k (eq. K.6 with
+j = m, without sigma_n^2), sigma_floor the matcher's sub-pixel bias bound (a systematic error the
+filter passes at DC gain 1), LSB^2/12 the Q8 rounding of the output, c the coverage factor (1 by default).
 The steady-state error of d is a Gaussian sequence with lag-1 correlation
 
     rho1 = ((I - K H) F P)_dd / P_dd,   from e' = (I - K H)(F e - w) + K n               (eq. K.2)
@@ -138,13 +142,6 @@ class KalmanDesign:
         return min(k, len(self.alpha) - 1)
 
 
-def _line_fit_cov(n: int) -> np.ndarray:
-    """Covariance / sigma_n^2 of the least-squares line through n consecutive samples, at the last one."""
-    sxx = n * (n * n - 1) / 12.0
-    lag = (n - 1) / 2.0                                   # last sample minus the mean frame
-    return np.array([[1.0 / n + lag * lag / sxx, lag / sxx], [lag / sxx, 1.0 / sxx]])
-
-
 def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, *,
                   rate_prior_pxps: float | None = None, sigma_floor_px: float = 0.01, gate_sigma: float = 3.0,
                   reacquire_s: float = 3.0, init_samples: int = 5, bound_s: float = 0.0,
@@ -168,7 +165,8 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     f = np.array([[1.0, 1.0], [0.0, 1.0]])
     qm = q * np.array([[0.25, 0.5], [0.5, 1.0]])
     n = init_samples
-    p = r * _line_fit_cov(n)                                 # eq. K.5
+    sxx, lag = n * (n * n - 1) / 12.0, (n - 1) / 2.0         # eq. K.5: LS line, d at the last sample
+    p = r * np.array([[1.0 / n + lag * lag / sxx, lag / sxx], [lag / sxx, 1.0 / sxx]])
     gain = np.zeros(2)
     if rate_prior_pxps is not None:
         gain = p[:, 1] / (p[1, 1] + (rate_prior_pxps / fs_hz) ** 2)
