@@ -115,6 +115,21 @@ def test_integer_kalman_within_2_lsb_of_float(seed: int, setting: tuple[float, f
             assert abs(a.disparity_q8 - 256 * b.disparity_px) <= 2
 
 
+def test_integer_kalman_within_2_lsb_of_float_through_starts_and_restarts() -> None:
+    """The paths the noise test rarely takes: a start with an outlier among its samples, a young
+    track restarting on a jump (eq. K.7), a start on a fast ramp, a gap longer than the re-acquisition."""
+    rng = np.random.default_rng(7)
+    ramp = list(40 + 0.25 * np.arange(60) + rng.uniform(-0.1, 0.1, 60))
+    zs = ([20.0, 20.1, 26.0, 19.9, 20.05, 20.0] + list(20 + rng.uniform(-0.1, 0.1, 4))
+          + list(21.5 + rng.uniform(-0.1, 0.1, 30)) + [None] * 35 + ramp)
+    pairs = _feed(design_kalman(10.0, 0.1, 0.05), zs)
+    assert any(a.valid and a.accepted and abs(a.disparity_px - 21.5) < 0.3 for a, _ in pairs[10:40])
+    for a, b in pairs:
+        assert (a.valid, a.accepted, a.misses) == (b.valid, b.accepted, b.misses)
+        if a.valid:
+            assert abs(a.disparity_q8 - 256 * b.disparity_px) <= 2
+
+
 def test_kalman_constant_input_has_no_stuck_error() -> None:
     design = design_kalman(30, 0.1, 0.05)
     f = DisparityKalman(design)
