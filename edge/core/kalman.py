@@ -21,8 +21,9 @@ shifts integers (and divides twice per start):
 
 Missing or gated samples coast on the prediction; the gate and the reported sigma grow with
 the coast count m. The first sample accepted after m misses rewinds k to the table entry whose
-predicted variance matches the coasted one, so the filter re-converges like a Kalman filter
-whose covariance grew. After `reacquire_s` of misses the track restarts.
+predicted variance matches a steady-state track's coasted one, so the filter re-converges like a
+Kalman filter whose covariance grew (not a young track's own coast: that lands on the start's
+gains, which move v as if unknown; measured, the glints recording then followed its glints). After `reacquire_s` of misses the track restarts.
 
 Start-up, and why it changed (bench-core's start-up lock-loss table: 10 000 starts, 2 % outliers,
 lost = off by > 5 sigma_n or no estimate in the 3 s after the start): the start was the median of
@@ -324,11 +325,11 @@ class _CVFilter(ABC):
                 return Estimate(False, float("nan"), float("nan"), float("inf"), False, self.misses)
         return self._output(accepted)
 
-    def _coast_var_q36(self) -> int:
+    def _coast_var_q36(self, k: int | None = None) -> int:
         """Predicted variance of d (Q36 px^2) for the coming update, eq. K.6: j = misses + 1
-        predictions after the k-th update, from the covariance of update k (not the steady state)."""
+        predictions after the k-th update (default: this track's), from that update's covariance."""
         d = self.design
-        pdd, pdv2, pvv = d.cov_q36[min(self.k, len(d.cov_q36) - 1)]
+        pdd, pdv2, pvv = d.cov_q36[min(self.k if k is None else k, len(d.cov_q36) - 1)]
         j = self.misses + 1
         return pdd + j * pdv2 + j * j * pvv + d.coast_q_q36[min(j, len(d.coast_q_q36) - 1)]
 
@@ -338,8 +339,10 @@ class _CVFilter(ABC):
         return round_shift(d.gate2_q8 * (self._coast_var_q36() + d.r_q36), COV_BITS + 8 - VAR_BITS)
 
     def _rewind(self) -> int:
-        """The first k whose predicted variance is no larger than the coasted one."""
-        c = self._coast_var_q36()
+        """The first k whose predicted variance is no larger than a *steady-state* track's coasted
+        one: the table maps only the variance of d, and a young track's coast, mostly d uncertainty,
+        would land on the start's gains (k = 0), which move v as if it were unknown."""
+        c = self._coast_var_q36(len(self.design.cov_q36) - 1)
         return bisect_left(self.design.pred_env_q36, -c, key=lambda x: -x)
 
     def sigma_px(self) -> float:
