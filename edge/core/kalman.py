@@ -23,7 +23,8 @@ Missing or gated samples coast on the prediction; the gate and the reported sigm
 the coast count m. The first sample accepted after m misses rewinds k to the table entry whose
 predicted variance matches a steady-state track's coasted one, so the filter re-converges like a
 Kalman filter whose covariance grew (not a young track's own coast: that lands on the start's
-gains, which move v as if unknown; measured, the glints recording then followed its glints). After `reacquire_s` of misses the track restarts.
+gains, which move v as if unknown; measured, the glints recording then followed its glints).
+After `reacquire_s` of misses the track restarts.
 
 Start-up, and why it changed (bench-core's start-up lock-loss table: 10 000 starts, 2 % outliers,
 lost = off by > 5 sigma_n or no estimate in the 3 s after the start): the start was the median of
