@@ -33,7 +33,7 @@ lost = off by > 5 sigma_n or no estimate in the 3 s after the start): the start 
 the *steady-state* coast, far below its un-converged covariance. A noise run in the first updates
 (or a fast boat's rate) drove the state off, the gate refused the truth and the estimate ran away
 until the 3 s re-acquisition: 10 and 828 of 10 000 starts lost (ship / fast boat, 10 fps), 0 and
-202 at 30 fps. Now none (0 of 10 000 in each row), from three changes:
+202 at 30 fps. Now 1 of 10 000 in each row with changes 1 and 2, none with the opt-in 3:
 
 1. (Re)starts fit a least-squares line to `init_samples` = n samples: d at the last one, v its slope
 (unbiased for any rate), covariance for n consecutive frames, l = (n - 1)/2, Sxx = n (n^2 - 1)/12,
@@ -57,6 +57,8 @@ locked track does this only after n consecutive refusals, each with probability 
 rate + 2 Phi(-3) (0.023 in the track test), i.e. p_g^n = 6e-9 per frame for n = 5 (n = 3: 1e-5)
 before the line test; a mature track never does (a glint burst is as self-consistent as the
 truth, and must stay gated).                                                              (eq. K.7)
+Opt-in (young_restart): in the pipeline the refused samples are often a consistent wrong match
+(measured: akashi-crossing, 29 false T fixes at 3-4 km), and edge.trackpoint screens restarts.
 
 Reported sigma (`sigma_px`), every term from the design:
 
@@ -147,7 +149,7 @@ class KalmanDesign:
 def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, *,
                   rate_prior_pxps: float | None = None, sigma_floor_px: float = 0.01, gate_sigma: float = 3.0,
                   reacquire_s: float = 3.0, init_samples: int = 5, bound_s: float = 0.0,
-                  bound_risk: float = 0.01) -> KalmanDesign:
+                  bound_risk: float = 0.01, young_restart: bool = False) -> KalmanDesign:
     """Run the Riccati recursion of the CV model from the line-fit start to its steady state and
     tabulate it.
 
@@ -157,7 +159,9 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     bias bound); added in quadrature to the reported sigma, not to the gains.
     bound_s, bound_risk: 0 (default) reports the plain 1-sigma. bound_s > 0 scales the random
     part of the reported sigma by the coverage factor of eq. K.3, so that 3 sigma_px bounds
-    every estimate of a bound_s long track except with probability bound_risk."""
+    every estimate of a bound_s long track except with probability bound_risk.
+    young_restart: arm the young-track restart of eq. K.7 (off by default: in the pipeline, samples
+    a young track refuses are often a consistent wrong match, not the truth)."""
     if fs_hz <= 0 or sigma_meas_px <= 0 or sigma_accel_pxps2 <= 0:
         raise ValueError("fs_hz, sigma_meas_px and sigma_accel_pxps2 must be positive")
     if init_samples < 3:
@@ -205,7 +209,7 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     # eq. K.6: j predictions after update k: P_dd + 2 j P_dv + j^2 P_vv + q sum_{i<j} (i + 1/2)^2
     cov3 = np.array([[c[0, 0], 2 * c[0, 1], c[1, 1]] for c in cov])
     coast_q = q * np.concatenate([[0.0], np.cumsum((np.arange(reacquire + 2) + 0.5) ** 2)])
-    young = int(np.argmax(pred_arr <= YOUNG_VAR_RATIO * pred_arr[-1]))          # eq. K.7
+    young = int(np.argmax(pred_arr <= YOUNG_VAR_RATIO * pred_arr[-1])) if young_restart else 0   # eq. K.7
     chi2_lim = float(chi2.isf(START_RISK, n - 2)) * r
     return KalmanDesign(fs_hz, sigma_meas_px, sigma_accel_pxps2, sigma_floor_px, gate_sigma, reacquire,
                         init_samples, float(cov3[0, 0]), np.array(alpha), np.array(beta),

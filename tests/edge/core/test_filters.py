@@ -122,7 +122,7 @@ def test_integer_kalman_within_2_lsb_of_float_through_starts_and_restarts() -> N
     ramp = list(40 + 0.25 * np.arange(60) + rng.uniform(-0.1, 0.1, 60))
     zs = ([20.0, 20.1, 26.0, 19.9, 20.05, 20.0] + list(20 + rng.uniform(-0.1, 0.1, 4))
           + list(21.5 + rng.uniform(-0.1, 0.1, 30)) + [None] * 35 + ramp)
-    pairs = _feed(design_kalman(10.0, 0.1, 0.05), zs)
+    pairs = _feed(design_kalman(10.0, 0.1, 0.05, young_restart=True), zs)
     assert any(a.valid and a.accepted and abs(a.disparity_px - 21.5) < 0.3 for a, _ in pairs[10:40])
     for a, b in pairs:
         assert (a.valid, a.accepted, a.misses) == (b.valid, b.accepted, b.misses)
