@@ -33,7 +33,7 @@ lost = off by > 5 sigma_n or no estimate in the 3 s after the start): the start 
 the *steady-state* coast, far below its un-converged covariance. A noise run in the first updates
 (or a fast boat's rate) drove the state off, the gate refused the truth and the estimate ran away
 until the 3 s re-acquisition: 10 and 828 of 10 000 starts lost (ship / fast boat, 10 fps), 0 and
-202 at 30 fps. Now 1 of 10 000 in each row with changes 1 and 2, none with the opt-in 3:
+202 at 30 fps. Now none (1 of 10 000 in each row without change 3):
 
 1. (Re)starts fit a least-squares line to `init_samples` = n samples: d at the last one, v its slope
 (unbiased for any rate), covariance for n consecutive frames, l = (n - 1)/2, Sxx = n (n^2 - 1)/12,
@@ -50,15 +50,14 @@ update k, from the tabulated posterior covariance P_k (not the steady state):
 
     S = P_dd + 2 j P_dv + j^2 P_vv + q sum_{i<j} (i + 1/2)^2 + sigma_n^2    (Q36 tables)   (eq. K.6)
 
-3. A track is *young* while its predicted variance exceeds twice the steady state (its gains still
-come from the start). When a young track's gate refuses n samples in a row that pass the start's
-line test, it restarts on them (the truth, where the state ran off) instead of waiting 3 s. A
-locked track does this only after n consecutive refusals, each with probability p_g = outlier
-rate + 2 Phi(-3) (0.023 in the track test), i.e. p_g^n = 6e-9 per frame for n = 5 (n = 3: 1e-5)
-before the line test; a mature track never does (a glint burst is as self-consistent as the
-truth, and must stay gated).                                                              (eq. K.7)
-Opt-in (young_restart): in the pipeline the refused samples are often a consistent wrong match
-(measured: akashi-crossing, 29 false T fixes at 3-4 km), and edge.trackpoint screens restarts.
+3. An unconfirmed start (no update accepted since it, k = 0) whose gate refuses n samples in a
+row that pass the start's line test restarts on them instead of waiting 3 s: such a start is no
+better than a new one (left: a start whose slope was > 3 sigma off, which the gate, growing by
+3 sqrt(P_vv) per frame, never catches). A start that then holds does this only after n refusals,
+each with probability p_g = outlier rate + 2 Phi(-3) (0.023 in the track test): p_g^n = 6e-9
+per frame for n = 5 (n = 3: 1e-5) before the line test. Not for confirmed tracks (measured: armed
+while the gains were still the start's, it followed consistent wrong matches in akashi-crossing,
+29 false T fixes at 3-4 km; and a glint burst is as self-consistent as the truth).      (eq. K.7)
 
 Reported sigma (`sigma_px`), every term from the design:
 
@@ -104,7 +103,6 @@ MAX_TABLE = 20000
 Q8_ROUNDING_VAR = 1.0 / (12 * (1 << SUBPIX_BITS) ** 2)   # output rounded to 1/256 px: uniform, var LSB^2/12
 COV_BITS = 36                  # Q36 px^2 covariance tables of the gate (int64 for coasts up to ~10^3 frames)
 START_RISK = 1e-3              # a consistent start is refused (and waits one frame) with this probability
-YOUNG_VAR_RATIO = 2.0          # a track is young while its predicted variance exceeds this x steady state
 
 
 @dataclass(frozen=True)
@@ -137,7 +135,7 @@ class KalmanDesign:
     start_chi2_q16: int        # eq. K.5: the start's residual sum of squares must stay below this
     prior_gain_q24: tuple[int, int]        # the rate prior as a pseudo-measurement v = 0: (g_d, g_v)
     prior_gain: tuple[float, float]
-    young_updates: int         # restart on consistent gated samples armed while k < young_updates (eq. K.7)
+    young_updates: int         # restart on consistent refused samples armed while k < this (eq. K.7)
     rho1: float = 1.0          # lag-1 correlation of the steady-state error of d (eq. K.2)
     coverage: float = 1.0      # factor on the random part of sigma_px (eq. K.3); 1 = plain 1-sigma
     accel_lag_px: float = 0.0  # steady-state lag if d'' = sigma_a were sustained (eq. K.4), for reports
@@ -149,7 +147,7 @@ class KalmanDesign:
 def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, *,
                   rate_prior_pxps: float | None = None, sigma_floor_px: float = 0.01, gate_sigma: float = 3.0,
                   reacquire_s: float = 3.0, init_samples: int = 5, bound_s: float = 0.0,
-                  bound_risk: float = 0.01, young_restart: bool = False) -> KalmanDesign:
+                  bound_risk: float = 0.01, young_restart: bool = True) -> KalmanDesign:
     """Run the Riccati recursion of the CV model from the line-fit start to its steady state and
     tabulate it.
 
@@ -160,8 +158,7 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     bound_s, bound_risk: 0 (default) reports the plain 1-sigma. bound_s > 0 scales the random
     part of the reported sigma by the coverage factor of eq. K.3, so that 3 sigma_px bounds
     every estimate of a bound_s long track except with probability bound_risk.
-    young_restart: arm the young-track restart of eq. K.7 (off by default: in the pipeline, samples
-    a young track refuses are often a consistent wrong match, not the truth)."""
+    young_restart: restart an unconfirmed start on n consistent refused samples (eq. K.7)."""
     if fs_hz <= 0 or sigma_meas_px <= 0 or sigma_accel_pxps2 <= 0:
         raise ValueError("fs_hz, sigma_meas_px and sigma_accel_pxps2 must be positive")
     if init_samples < 3:
@@ -209,7 +206,7 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     # eq. K.6: j predictions after update k: P_dd + 2 j P_dv + j^2 P_vv + q sum_{i<j} (i + 1/2)^2
     cov3 = np.array([[c[0, 0], 2 * c[0, 1], c[1, 1]] for c in cov])
     coast_q = q * np.concatenate([[0.0], np.cumsum((np.arange(reacquire + 2) + 0.5) ** 2)])
-    young = int(np.argmax(pred_arr <= YOUNG_VAR_RATIO * pred_arr[-1])) if young_restart else 0   # eq. K.7
+    young = 1 if young_restart else 0                                            # eq. K.7: k = 0 only
     chi2_lim = float(chi2.isf(START_RISK, n - 2)) * r
     return KalmanDesign(fs_hz, sigma_meas_px, sigma_accel_pxps2, sigma_floor_px, gate_sigma, reacquire,
                         init_samples, float(cov3[0, 0]), np.array(alpha), np.array(beta),
@@ -318,7 +315,7 @@ class _CVFilter(ABC):
                 self._gated = []
                 accepted = True
             elif self.k < d.young_updates:
-                # eq. K.7: a young track whose gate refuses n samples that lie on a line restarts on them
+                # eq. K.7: an unconfirmed start whose gate refuses n samples on a line restarts on them
                 self._gated.append((self._frame, z))
                 if len(self._gated) == d.init_samples and self._try_start(self._gated):
                     return self._output(True)
