@@ -115,6 +115,22 @@ def test_integer_kalman_within_2_lsb_of_float(seed: int, setting: tuple[float, f
             assert abs(a.disparity_q8 - 256 * b.disparity_px) <= 2
 
 
+def test_integer_kalman_within_2_lsb_of_float_through_starts_and_restarts() -> None:
+    """The paths the noise test rarely takes: a start with an outlier among its samples, an
+    unconfirmed start restarting on a jump (eq. K.7), a start on a fast ramp, a gap longer than
+    the re-acquisition."""
+    rng = np.random.default_rng(7)
+    ramp = list(40 + 0.25 * np.arange(60) + rng.uniform(-0.1, 0.1, 60))
+    zs = ([20.0, 20.1, 26.0, 19.9, 20.05, 20.0] + list(21.5 + rng.uniform(-0.1, 0.1, 30))
+          + [None] * 35 + ramp)
+    pairs = _feed(design_kalman(10.0, 0.1, 0.05), zs)
+    assert any(a.valid and a.accepted and abs(a.disparity_px - 21.5) < 0.3 for a, _ in pairs[6:15])
+    for a, b in pairs:
+        assert (a.valid, a.accepted, a.misses) == (b.valid, b.accepted, b.misses)
+        if a.valid:
+            assert abs(a.disparity_q8 - 256 * b.disparity_px) <= 2
+
+
 def test_kalman_constant_input_has_no_stuck_error() -> None:
     design = design_kalman(30, 0.1, 0.05)
     f = DisparityKalman(design)
@@ -138,8 +154,8 @@ def test_gate_coast_and_reacquire() -> None:
     assert f.update(20.02).accepted
     gap = [f.update(None) for _ in range(31)]       # > 3 s without measurements: restart
     assert gap[-1].misses == 31 and not gap[-1].valid
-    restart = [f.update(float(z)) for z in [35.0, 35.1, 48.0, 34.9, 35.0]]   # one outlier among five
-    assert [e.valid for e in restart] == [False] * 4 + [True]
+    restart = [f.update(float(z)) for z in [35.0, 35.1, 48.0, 34.9, 35.0, 35.05]]  # one outlier among six
+    assert [e.valid for e in restart] == [False] * 5 + [True]     # the outlier fails the line fit: dropped
     assert abs(restart[-1].disparity_px - 35.0) < 0.11
 
 
