@@ -32,11 +32,12 @@ import numpy as np
 
 from edge.anchor import line_fit, median
 from edge.core.butterworth import ButterworthQ
-from edge.core.kalman import DisparityKalman, KalmanDesign, design_kalman
+from edge.core.kalman import DisparityKalman
 from edge.core.match import Match, match_point
 from edge.core.prefilter import NOISE_GAIN
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack, track_point
+from edge.ranging import Designs, accel_rung
 
 SUBPIXELS = ("cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
@@ -85,25 +86,6 @@ class PointSettings:
     focal_px: float = 0.0
 
 
-class Designs:
-    """The Kalman tables of one setting, computed once (lazily per noise level) and shared by all tracks.
-
-    The measurement noise of a track is not known in advance: a textured bridge at 1 km
-    matches to a few hundredths of a pixel, a small hull in fog to half a pixel. Each track
-    measures its own scatter and uses the design of the matching rung of NOISE_LADDER_PX
-    (factors of 2), so the gate and the reported sigma fit the data actually seen."""
-
-    def __init__(self, s: PointSettings) -> None:
-        self.s, self._tables = s, {}
-
-    def disparity(self, sigma_px: float) -> KalmanDesign:
-        s = self.s
-        if sigma_px not in self._tables:
-            self._tables[sigma_px] = design_kalman(s.fps, sigma_px, s.sigma_accel_pxps2,
-                                                   gate_sigma=s.gate_sigma, reacquire_s=s.reacquire_s)
-        return self._tables[sigma_px]
-
-
 class TrackPoint:
     """The measured point of one track: position in the rectified left image, disparity, filters.
 
@@ -114,8 +96,10 @@ class TrackPoint:
     offers other points on the ship, and one whose disparity fits the prediction resumes
     following. The filters are kept: the track cannot adopt another ship's range."""
 
-    def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs) -> None:
+    def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs,
+                 window: int | None = None) -> None:
         self.s = settings
+        self.window = window or settings.window  # follow and match window (edge.anchor.ship_window)
         self.designs = designs
         self.u, self.v = u, v
         self.template: np.ndarray | None = None  # window around template_at in the last image
@@ -145,6 +129,7 @@ class TrackPoint:
 
     def _reset_filters(self) -> None:
         s = self.s
+        self.accel_pxps2 = s.sigma_accel_pxps2  # the Kalman's white acceleration, see _adapt_accel
         self.kalman = DisparityKalman(self.designs.disparity(self.noise_px)) if s.filter == "kalman" else None
         self.butter = ButterworthQ(s.butterworth_cutoff_hz, s.fps) if s.filter == "butterworth" else None
         self.disparity: float | None = None  # filtered
@@ -194,7 +179,7 @@ class TrackPoint:
             else:
                 self.follow_failures = 0
                 self.followed = True
-                self.follow_costs.append(found.cost / self.s.window**4)  # ZSSD -> DN^2 per pixel
+                self.follow_costs.append(found.cost / self.window**4)  # ZSSD -> DN^2 per pixel
                 self.u, self.v = found.x_px + self.template_at[0], found.y_px + self.template_at[1]
         if self.searching:
             for u, v in candidates() if candidates is not None else []:
@@ -272,7 +257,7 @@ class TrackPoint:
 
     # ------------------------------------------------------------ internals
     def _in_image(self, rect: Rectifier, ui: int | None = None, vi: int | None = None) -> bool:
-        h = self.s.window // 2
+        h = self.window // 2
         ui = int(round(self.u)) if ui is None else ui
         vi = int(round(self.v)) if vi is None else vi
         return h + 2 <= ui < rect.rig.width - h - 2 and h + 1 <= vi < rect.rig.height - h - 1
@@ -288,7 +273,7 @@ class TrackPoint:
         x0, y0, tx, ty = self.template_at
         h_patch, w_patch = self.template.shape
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
-        found = track_point(self.template, current, tx - x0, ty - y0, window=self.s.window,
+        found = track_point(self.template, current, tx - x0, ty - y0, window=self.window,
                             search_radius=self.s.follow_radius_px, predicted_dx=pu - tx,
                             subpixel=self.s.follow_subpixel, noise_dn=self.s.noise_dn,
                             max_sigma_px=FOLLOW_MAX_SIGMA_PX)
@@ -297,7 +282,7 @@ class TrackPoint:
     def _off_track(self, found: PointTrack, pu: float) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
         track's own motion puts it (the match jumped to another object)."""
-        cost = found.cost / self.s.window**4
+        cost = found.cost / self.window**4
         if len(self.follow_costs) >= 5:
             typical = median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
@@ -310,7 +295,7 @@ class TrackPoint:
         """Keep the rectified patch around the point: the core tracker searches it again in later
         pairs, so it spans the window, the search square, the tracker's margins and the motion
         expected while the template is kept."""
-        h, r = self.s.window // 2, self.s.follow_radius_px
+        h, r = self.window // 2, self.s.follow_radius_px
         ui, vi = int(round(self.u)), int(round(self.v))
         motion = int(math.ceil(abs(self.u_rate_pxps) * TEMPLATE_REFRESH_S)) + 2
         mx, my = h + r + FOLLOW_MARGIN_PX + motion, h + r + FOLLOW_MARGIN_PX + 2
@@ -351,7 +336,7 @@ class TrackPoint:
         different ranges (a ship passing in front), which pulls the disparity between theirs."""
         if len(self.match_costs) < 5:
             return False
-        n2 = float(self.s.window**2) ** 2  # ZSSD costs are N sum D^2 - (sum D)^2: N^2 x the variance
+        n2 = float(self.window**2) ** 2  # ZSSD costs are N sum D^2 - (sum D)^2: N^2 x the variance
         typical = median(self.match_costs)
         return cost > MIXED_COST_FACTOR * typical + MIXED_COST_FLOOR_DN2 * n2
 
@@ -369,7 +354,7 @@ class TrackPoint:
 
     def match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
                   pred: float | None) -> Match:
-        s, h = self.s, self.s.window // 2
+        s, h = self.s, self.window // 2
         ui, vi = int(round(u)), int(round(v))
         d_hi = s.max_disparity
         if pred is not None:
@@ -377,7 +362,7 @@ class TrackPoint:
         x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
         get, gain = (rect.xsobel_patch, NOISE_GAIN) if s.prefilter == "xsobel" else (rect.patch, 1.0)
         lp, rp = (get(image, side, x0, vi - h, width, 2 * h + 1) for side, image in enumerate((left, right)))
-        return match_point(lp, rp, u - x0, v - (vi - h), window=s.window, max_disparity=d_hi,
+        return match_point(lp, rp, u - x0, v - (vi - h), window=self.window, max_disparity=d_hi,
                            predicted_disparity=pred, cost=s.cost, subpixel=s.subpixel,
                            search_radius=s.search_radius_px if pred is not None else None,
                            noise_dn=s.noise_dn * gain, max_sigma_px=s.max_sigma_px)
@@ -408,7 +393,17 @@ class TrackPoint:
                 (level < self.noise_px and scatter < 0.4 * self.noise_px):
             # same state, the gains, gate and variances of the new level from the next update on
             self.noise_px = level
-            self.kalman.design = self.designs.disparity(level)
+            self.kalman.design = self.designs.disparity(level, self.accel_pxps2)
+        self._adapt_accel()
+
+    def _adapt_accel(self) -> None:
+        """The white acceleration of the design: what a ship at this disparity can do (edge.ranging)."""
+        if self.disparity is None or self.kalman is None:
+            return
+        rung = accel_rung(self.disparity, self.s.focal_px * self.s.baseline_m, self.s.sigma_accel_pxps2)
+        if rung != self.accel_pxps2:
+            self.accel_pxps2 = rung
+            self.kalman.design = self.designs.disparity(self.noise_px, rung)
 
     def _filter(self, z: float | None) -> None:
         self.raw_disparity = z
