@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from edge.anchor import reference_points
+from edge.anchor import reference_points, ship_window
 from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
@@ -119,7 +119,7 @@ class TrackTable:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
         for track in self.tracks:
-            candidates = lambda t=track: self._candidates(left, t.box)  # noqa: E731 (bound per track)
+            candidates = lambda t=track: self._candidates(left, t.box, window=t.point.window)  # noqa: E731
             alive = track.point.step(left, right, self.rect, skipped, candidates)
             du, dv = track.point.jumped
             if du or dv:  # the point moved to another part of the ship: the ship's box did not
@@ -174,7 +174,7 @@ class TrackTable:
         if not _contains(box, p.u, p.v) and p.prediction() is None:
             # a point that never measured anything and is off the ship: start over on the ship (one
             # with a range history stays: a searching point gets candidates from this box next pair)
-            p.reanchor(*self._reference(left, box))
+            p.reanchor(*self._candidates(left, box, 1, p.window)[0])
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
         if track.status is TrackStatus.ACQUIRING and not p.searching:
             slope = self._slope(p, left, right)
@@ -187,8 +187,9 @@ class TrackTable:
         return True
 
     def _birth(self, left: np.ndarray, right: np.ndarray, t_ns: int, box: np.ndarray) -> None:
-        u, v = self._reference(left, box)
-        point = TrackPoint(u, v, self.ps, self.designs)
+        window = ship_window(box[2] - box[0], self.ps.window)
+        u, v = self._candidates(left, box, 1, window)[0]
+        point = TrackPoint(u, v, self.ps, self.designs, window)
         if not point.step(left, right, self.rect):
             return
         m = point.match
@@ -201,17 +202,16 @@ class TrackTable:
         self.next_id += 1
         self.births += 1
 
-    def _reference(self, left: np.ndarray, box: np.ndarray) -> tuple[float, float]:
-        return self._candidates(left, box, 1)[0]
-
-    def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES) -> list:
+    def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES,
+                    window: int | None = None) -> list:
         """The best-textured points in the upper part of a (rectified) ship box, best first."""
-        h = self.ps.window // 2
+        window = window or self.ps.window
+        h = window // 2
         x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
         x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
         ox, oy = x0 - h - 1, y0 - h - 1
         patch = self.rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
-        return reference_points(patch, (x0, y0, x1, y1), (ox, oy), self.ps.window, count)
+        return reference_points(patch, (x0, y0, x1, y1), (ox, oy), window, count)
 
     def _on_the_sea(self, disparity_px: float, box: np.ndarray) -> bool:
         """Is the measured disparity possible for a ship whose waterline is the box's bottom row?

@@ -1,4 +1,4 @@
-"""reference_points(): texture in the upper part of the box, spread out; median() equals numpy's."""
+"""reference_points(): texture in the upper part, spread out; median() equals numpy's; ship_window()."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from helpers import band_texture, shifted_u8
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.anchor import line_fit, median, reference_points
+from edge.anchor import SHIP_WINDOW_MARGIN_PX, line_fit, median, reference_points, ship_window
 
 
 def test_reference_points_pick_texture_in_the_upper_part_and_spread_out() -> None:
@@ -38,3 +38,15 @@ def test_line_fit_equals_polyfit(points: list[tuple[int, float]]) -> None:
     slope, intercept = np.polyfit(t, [p[1] for p in points], 1)
     got = line_fit(points)
     assert got[0] == pytest.approx(intercept, abs=1e-6) and got[1] == pytest.approx(slope, abs=1e-6)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(1.0, 200.0), st.sampled_from([9, 11, 15, 21]))
+def test_ship_window_spans_a_small_ship_and_keeps_the_window_for_a_big_one(box_px: float,
+                                                                           window: int) -> None:
+    w = ship_window(box_px, window)
+    assert w % 2 == 1 and window <= w <= 2 * window - 1
+    if box_px > 2 * window:
+        assert w == window
+    elif w < 2 * window - 1:
+        assert w >= box_px + SHIP_WINDOW_MARGIN_PX  # both outlines and a margin inside
