@@ -15,6 +15,8 @@ ladder (factors of 2 below the configured value) so that few tables are built an
 
 from __future__ import annotations
 
+import math
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from edge.core.kalman import KalmanDesign, design_kalman
@@ -61,8 +63,23 @@ class Designs:
         self.s, self._tables = s, {}
 
     def disparity(self, sigma_px: float, accel_pxps2: float | None = None) -> KalmanDesign:
+        """The design for this noise level and white acceleration (default: the configured one).
+
+        A design below the configured acceleration averages over longer than the matcher's
+        errors stay independent (a window's texture-dependent error drifts with the ship's
+        pose over seconds: tools/evaluate --diagnose), so its innovations spread more than its
+        white-noise model says. It keeps the configured design's gate (the same samples are
+        refused as before; the accepted ones move the estimate less) and reports no less than
+        the configured design's steady-state sigma (sigma_floor_px of edge.core.kalman)."""
         s, key = self.s, (sigma_px, accel_pxps2 or self.s.sigma_accel_pxps2)
         if key not in self._tables:
-            self._tables[key] = design_kalman(s.fps, sigma_px, key[1],
-                                              gate_sigma=s.gate_sigma, reacquire_s=s.reacquire_s)
+            design = design_kalman(s.fps, sigma_px, key[1], gate_sigma=s.gate_sigma,
+                                   reacquire_s=s.reacquire_s)
+            if key[1] < s.sigma_accel_pxps2:
+                top = self.disparity(sigma_px)
+                gate_k = top.gate_q16[0]
+                gate_k = gate_k + (gate_k[-1],) * max(0, len(design.alpha) - len(gate_k))
+                design = replace(design, sigma_floor_px=math.sqrt(top.post_var[-1] + top.sigma_floor_px**2),
+                                 gate_q16=(gate_k, top.gate_q16[1]))
+            self._tables[key] = design
         return self._tables[key]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -70,5 +71,10 @@ def test_designs_are_shared_per_noise_and_acceleration() -> None:
     assert designs.disparity(0.08) is a and designs.disparity(0.08, 0.05) is a
     b = designs.disparity(0.08, 0.05 / 8)
     assert b is not a and b.sigma_accel_pxps2 == 0.05 / 8
-    # less process noise: the filter averages longer, so its steady-state variance is smaller
+    # less process noise: the filter averages longer, so its steady-state variance is smaller, but
+    # it reports no less than the configured design (errors correlated over time do not average)
     assert b.post_var[-1] < a.post_var[-1]
+    assert b.sigma_floor_px**2 == pytest.approx(a.post_var[-1] + a.sigma_floor_px**2)
+    # and refuses what the configured design refuses (its gate, held at its steady state)
+    assert all(b.gate_q16[0][k] == a.gate_q16[0][a.table_index(k)] for k in range(len(b.alpha)))
+    assert b.gate_q16[1] == a.gate_q16[1]
