@@ -187,7 +187,11 @@ class TrackTable:
         return True
 
     def _birth(self, left: np.ndarray, right: np.ndarray, t_ns: int, box: np.ndarray) -> None:
-        window = ship_window(box[2] - box[0], self.ps.window)
+        m = self.ps.window
+        bx0, by0 = int(math.floor(box[0])) - m, int(math.floor(box[1])) - m
+        bx1, by1 = int(math.ceil(box[2])) + m, int(math.ceil(box[3])) + m
+        patch = self.rect.patch(left, 0, bx0, by0, bx1 - bx0, by1 - by0)
+        window = ship_window(patch, (bx0, by0), tuple(box), m)
         u, v = self._candidates(left, box, 1, window)[0]
         point = TrackPoint(u, v, self.ps, self.designs, window)
         if not point.step(left, right, self.rect):
