@@ -19,6 +19,7 @@ sky measures their disparity) and the part of the ship hit (hull, decks, bridge 
 
 from __future__ import annotations
 
+import copy
 import math
 from collections import defaultdict
 from dataclasses import dataclass
@@ -27,8 +28,9 @@ import numpy as np
 
 from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
+from edge.schema import load_yaml
 from edge.sim.rays import CameraRays, cast
-from edge.sim.scenario import load_scenario
+from edge.sim.scenario import scenario_from_dict, scenario_path
 from edge.sim.simulator import Simulation
 
 BINS_M = ((0, 1000), (1000, 2000), (2000, 3000), (3000, 4000), (4000, 5000))
@@ -52,7 +54,14 @@ class Diagnoser:
     """The simulator's view of a recording, probed at the pipeline's track points."""
 
     def __init__(self, meta: dict, rect: Rectifier, window: int) -> None:
-        self.sim = Simulation(load_scenario(meta["scenario"]), int(meta.get("seed", 0)))
+        # the scenario as rendered: NAME@WIDTH (tools/render-variant) is NAME with the recording's
+        # (scaled) calibration
+        name = str(meta["scenario"])
+        path = scenario_path(name.split("@")[0])
+        data = copy.deepcopy(load_yaml(path))
+        data["calibration"] = meta["calibration"]
+        data["site"] = meta.get("site", data.get("site"))
+        self.sim = Simulation(scenario_from_dict(data, path, name), int(meta.get("seed", 0)))
         rig = self.sim.rig
         half = rig.baseline_m / 2.0
         self.left = CameraRays(rig.left, rig.width, rig.height, -half)
