@@ -4,7 +4,8 @@ Everything here works in rectified left-image pixels (`edge.core.rectify`):
 rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 
 - Reference point (`edge.anchor.reference_points`): the best-textured window in
-  the upper part of the ship's box — the superstructure, the thesis's bridge.
+  the upper part of the ship's box — the superstructure, the thesis's bridge; the window spans a
+  small far ship on a quiet background (`edge.anchor.ship_window`, chosen at birth).
 - Left follow: the core's sub-pixel point tracker (`edge.core.track_point`,
   ZSSD 2-D search with cancellation-free parabola fits here for speed) finds a
   template kept for up to a second around the position the point's image motion
@@ -15,7 +16,8 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 - Right match: `edge.core.match_point` on two rectified patches of the same rows and
   columns (prefilter "xsobel": both clipped x-Sobel, edge.core.prefilter), the search narrowed
   to the disparity filter's prediction once it runs (a full search at birth and after a restart).
-- Filter: the core's fixed-point CV Kalman with its 3-sigma gate (default), the thesis's
+- Filter: the core's fixed-point CV Kalman with its 3-sigma gate (default; its white acceleration
+  is what a ship at the track's disparity can do, `edge.ranging`), the thesis's
   Butterworth (eq. 6.1), or none (the raw whole-pixel / sub-pixel stages that tools/evaluate
   compares). The left point's column is smoothed by a least-squares line over the last second
   of follows: its slope is the image motion that predicts the next position and gives the bearing rate.
