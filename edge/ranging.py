@@ -7,10 +7,13 @@ A ship at depth Z (disparity d = f L_B / Z) moving at speed <= v with accelerati
     |d''| <= a d^2 / (f L_B) + 2 v^2 d^3 / (f L_B)^2                        (px/s^2)
 
 At 5 km with the 2048 px rig (f L_B = 21 165 px m) that is ~6e-4 px/s^2, eighty times less than
-the filter's configured white acceleration (which is what a ship can do at a few hundred metres).
-A constant-velocity Kalman designed for the far ship averages over much longer, which is what
-turns 0.1-0.2 px of per-pair scatter into a usable range at 4-5 km. The design is taken from a
-ladder (factors of 2 below the configured value) so that few tables are built and shared.
+the filter's configured white acceleration (which is what a ship can do at a few hundred metres),
+so a constant-velocity Kalman designed for the far ship may average over much longer. The design
+is taken from a ladder of factors of 2 below the configured value, so that few tables are built
+and shared, and the ladder stops at 1/16: the matcher's error on a ship is not white (it follows
+the window's texture as the ship's pose changes, over seconds), and deeper designs averaged it
+into a persistent offset instead (tools/evaluate: two-ships-crossing 2-3 km IMO 94 % on main,
+90 % with 1/256, 96 % with 1/16; approach-2048 3-4 km 50 % on main, 99 % / 98 %).
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ if TYPE_CHECKING:
 
 MAX_SHIP_SPEED_MPS = 25.0  # ~50 kn: no ship's range changes faster
 MAX_SHIP_ACCEL_MPS2 = 0.5  # speed change or turn (12 kn on a 120 m radius is 0.32 m/s^2)
-ACCEL_RUNGS = 8  # the ladder goes down to the configured acceleration / 2^8
+ACCEL_RUNGS = 4  # the ladder goes down to the configured acceleration / 2^4 (see the module doc)
 
 
 def disparity_accel_bound(disparity_px: float, fb_px_m: float, *, speed_mps: float = MAX_SHIP_SPEED_MPS,
