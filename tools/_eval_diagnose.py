@@ -75,7 +75,8 @@ class Diagnoser:
         ur = self.rect.raw_to_rect(self.right.project(world), 1)
         return ul[:, 0] - ur[:, 0]
 
-    def probe(self, t_ns: int, track, bridge_xyz: np.ndarray) -> Probe | None:
+    def probe(self, t_ns: int, track, bridges: dict[int, np.ndarray]) -> Probe | None:
+        """The track's point against the ship its window sees (bridges: ship id -> truth xyz)."""
         p = track.point
         if p.disparity is None or p.disparity <= 0:
             return None
@@ -92,6 +93,9 @@ class Diagnoser:
         # the point's own ray, or (a window centred on the outline) the nearest ray that hits a ship
         j = int(on[np.argmin(np.hypot(uv[on, 0] - p.u, uv[on, 1] - p.v))])
         ship = hits.ship[j]
+        bridge_xyz = bridges.get(self.sim.ships[ship].ship_id)
+        if bridge_xyz is None:
+            return None
         share = float(np.mean(hits.ship[1:] == ship))
         part = posed[ship].model.parts[hits.part[j]].name
         point = self.left.origin + hits.t[j] * self.left.dirs(raw[j:j + 1, 0], raw[j:j + 1, 1])[0]
@@ -115,14 +119,8 @@ def diagnose(pipe, diag: Diagnoser, source, truth: dict[int, np.ndarray]) -> tup
             for track in pipe.table.tracks:
                 if track.status is not TrackStatus.TRACKING:
                     continue
-                bridges = [rows[pair.t_ns] for rows in index.values() if pair.t_ns in rows]
-                if not bridges:
-                    continue
-                p = track.point
-                # the ship whose bridge is nearest the track's bearing
-                b = min(bridges, key=lambda xyz: abs(math.atan2(xyz[0], xyz[2])
-                                                     - math.atan2(p.u - diag.rect.cx, diag.rect.f_px)))
-                probe = diag.probe(pair.t_ns, track, b)
+                bridges = {sid: rows[pair.t_ns] for sid, rows in index.items() if pair.t_ns in rows}
+                probe = diag.probe(pair.t_ns, track, bridges)
                 if probe is None:
                     misses["window off every ship"] += 1
                 else:
