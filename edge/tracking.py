@@ -119,7 +119,7 @@ class TrackTable:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
         for track in self.tracks:
-            candidates = lambda t=track: self._candidates(left, t.box, window=t.point.window)  # noqa: E731
+            candidates = lambda t=track: self._candidates(left, t.box, window=t.point.s.window)  # noqa: E731
             alive = track.point.step(left, right, self.rect, skipped, candidates)
             du, dv = track.point.jumped
             if du or dv:  # the point moved to another part of the ship: the ship's box did not
@@ -174,7 +174,7 @@ class TrackTable:
         if not _contains(box, p.u, p.v) and p.prediction() is None:
             # a point that never measured anything and is off the ship: start over on the ship (one
             # with a range history stays: a searching point gets candidates from this box next pair)
-            p.reanchor(*self._candidates(left, box, 1, p.window)[0])
+            p.reanchor(*self._candidates(left, box, 1, p.s.window)[0])
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
         if track.status is TrackStatus.ACQUIRING and not p.searching:
             slope = self._slope(p, left, right)

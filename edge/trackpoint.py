@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -100,8 +100,8 @@ class TrackPoint:
 
     def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs,
                  window: int | None = None) -> None:
-        self.s = settings
-        self.window = window or settings.window  # follow and match window (edge.anchor.ship_window)
+        # a track's own window (edge.anchor.ship_window) rides in its copy of the settings
+        self.s = settings if window in (None, settings.window) else replace(settings, window=window)
         self.designs = designs
         self.u, self.v = u, v
         self.template: np.ndarray | None = None  # window around template_at in the last image
@@ -181,7 +181,7 @@ class TrackPoint:
             else:
                 self.follow_failures = 0
                 self.followed = True
-                self.follow_costs.append(found.cost / self.window**4)  # ZSSD -> DN^2 per pixel
+                self.follow_costs.append(found.cost / self.s.window**4)  # ZSSD -> DN^2 per pixel
                 self.u, self.v = found.x_px + self.template_at[0], found.y_px + self.template_at[1]
         if self.searching:
             for u, v in candidates() if candidates is not None else []:
@@ -259,7 +259,7 @@ class TrackPoint:
 
     # ------------------------------------------------------------ internals
     def _in_image(self, rect: Rectifier, ui: int | None = None, vi: int | None = None) -> bool:
-        h = self.window // 2
+        h = self.s.window // 2
         ui = int(round(self.u)) if ui is None else ui
         vi = int(round(self.v)) if vi is None else vi
         return h + 2 <= ui < rect.rig.width - h - 2 and h + 1 <= vi < rect.rig.height - h - 1
@@ -275,7 +275,7 @@ class TrackPoint:
         x0, y0, tx, ty = self.template_at
         h_patch, w_patch = self.template.shape
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
-        found = track_point(self.template, current, tx - x0, ty - y0, window=self.window,
+        found = track_point(self.template, current, tx - x0, ty - y0, window=self.s.window,
                             search_radius=self.s.follow_radius_px, predicted_dx=pu - tx,
                             subpixel=self.s.follow_subpixel, noise_dn=self.s.noise_dn,
                             max_sigma_px=FOLLOW_MAX_SIGMA_PX)
@@ -284,7 +284,7 @@ class TrackPoint:
     def _off_track(self, found: PointTrack, pu: float) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
         track's own motion puts it (the match jumped to another object)."""
-        cost = found.cost / self.window**4
+        cost = found.cost / self.s.window**4
         if len(self.follow_costs) >= 5:
             typical = median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
@@ -297,7 +297,7 @@ class TrackPoint:
         """Keep the rectified patch around the point: the core tracker searches it again in later
         pairs, so it spans the window, the search square, the tracker's margins and the motion
         expected while the template is kept."""
-        h, r = self.window // 2, self.s.follow_radius_px
+        h, r = self.s.window // 2, self.s.follow_radius_px
         ui, vi = int(round(self.u)), int(round(self.v))
         motion = int(math.ceil(abs(self.u_rate_pxps) * TEMPLATE_REFRESH_S)) + 2
         mx, my = h + r + FOLLOW_MARGIN_PX + motion, h + r + FOLLOW_MARGIN_PX + 2
@@ -338,7 +338,7 @@ class TrackPoint:
         different ranges (a ship passing in front), which pulls the disparity between theirs."""
         if len(self.match_costs) < 5:
             return False
-        n2 = float(self.window**2) ** 2  # ZSSD costs are N sum D^2 - (sum D)^2: N^2 x the variance
+        n2 = float(self.s.window**2) ** 2  # ZSSD costs are N sum D^2 - (sum D)^2: N^2 x the variance
         typical = median(self.match_costs)
         return cost > MIXED_COST_FACTOR * typical + MIXED_COST_FLOOR_DN2 * n2
 
@@ -356,7 +356,7 @@ class TrackPoint:
 
     def match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
                   pred: float | None) -> Match:
-        s, h = self.s, self.window // 2
+        s, h = self.s, self.s.window // 2
         ui, vi = int(round(u)), int(round(v))
         d_hi = s.max_disparity
         if pred is not None:
@@ -364,7 +364,7 @@ class TrackPoint:
         x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
         get, gain = (rect.xsobel_patch, NOISE_GAIN) if s.prefilter == "xsobel" else (rect.patch, 1.0)
         lp, rp = (get(image, side, x0, vi - h, width, 2 * h + 1) for side, image in enumerate((left, right)))
-        return match_point(lp, rp, u - x0, v - (vi - h), window=self.window, max_disparity=d_hi,
+        return match_point(lp, rp, u - x0, v - (vi - h), window=s.window, max_disparity=d_hi,
                            predicted_disparity=pred, cost=s.cost, subpixel=s.subpixel,
                            search_radius=s.search_radius_px if pred is not None else None,
                            noise_dn=s.noise_dn * gain, max_sigma_px=s.max_sigma_px)
