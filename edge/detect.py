@@ -9,23 +9,35 @@ costs a few milliseconds even at 2048 x 1536:
    gradient near the prediction in each of several column bands, the median
    offset over the bands (so a ship on the horizon cannot pull it), clamped to
    a few pixels of the prediction and smoothed over time.
-2. Contrast. Vertical-line white and black top-hats: they keep whatever is
-   shorter than the structuring element vertically and brighter or darker than
-   its surroundings, and remove the sky gradient, the sea gradient and the
-   horizon step (all extended vertically or horizontally). Ships are bright
-   superstructure and dark hulls, so both polarities count.
-3. Threshold per row band, from the robust spread (median + k MAD) of the
-   contrast image on the sea: the wave texture near the camera is stronger
-   than far out, and a fixed threshold would either flood the foreground or
-   miss the fog.
-4. Blobs: a horizontal closing joins hull and superstructure, connected
+2. Levelling. Each column is moved up by its horizon's offset from the
+   median horizon row, by a fraction of a row (linear between rows): a rolled
+   camera tilts the horizon, the lens curves it, and whole-row shifts would
+   leave up to half a row of it, which where the brightness changes fast down
+   the rows (the horizon step, the haze under it) is a residual as strong as a
+   hull along every run of columns on the wrong side of the rounding.
+3. Contrast. The residual against the row's median (the sky and sea gradients
+   and the horizon step are constant along a levelled row), averaged over a
+   small box: noise drops by the square root of its area, a solid hull does
+   not. Both polarities count (bright superstructure, dark hulls).
+4. Threshold per row, from the robust spread (median + k MAD) of the residual:
+   one level for the sky, and on the sea levels from row bands interpolated
+   between the bands' centre rows. The sea's texture grows steadily toward the
+   camera (the same waves seen nearer and steeper: their image scale and
+   contrast rise with the depression angle), so a level held constant over a
+   band is the band's average texture and the near edge of every band passes
+   as long, flat "wave band" blobs; a level that follows the rows does not.
+5. Blobs: a horizontal closing joins hull and superstructure, connected
    components with stats, nearby boxes merged. Kept when at least
    `min_ship_px` long (eq. 3.12 sets that length), tall enough to be a body
    rather than a wave crest, their bottom at or below the horizon (on the sea,
-   or hull-down beyond it) and their top not far below it... for the size they
-   have. Glints (a few pixels) fail the size test; wave crests the shape and
-   height tests; what still slips through must persist and match in stereo
-   at the sea range of its waterline before it becomes a track (tracking.py).
+   or hull-down beyond it), and standing at least `MIN_HEIGHT_M` tall at the
+   sea range of their waterline. Glints (a few pixels) fail the size test;
+   what still slips through must persist and match in stereo at the sea range
+   of its waterline before it becomes a track (tracking.py).
+
+Cost: the work images are kept between calls (fresh multi-megabyte arrays cost
+page faults), the horizon gradient is taken on the search strip only, and the
+labelling runs inside the bounding box of the set pixels.
 """
 
 from __future__ import annotations
@@ -99,6 +111,7 @@ class Detector:
         self.horizon_raw = self._predicted_horizon(site_height_m)  # (width,) raw left rows, full res
         self.horizon_offset_px = 0.0  # refinement, full-resolution rows
         self.search_px = max(3.0, rectifier.f_px * math.tan(math.radians(HORIZON_SEARCH_DEG)))
+        self._buf: dict[str, np.ndarray] | None = None  # work images, `_buffers`
 
     def _predicted_horizon(self, site_height_m: float) -> np.ndarray:
         """Row of the sea horizon in each raw left column: the dip mapped through the camera model."""
@@ -122,15 +135,19 @@ class Detector:
         hs, ws = small.shape
         pred = self.horizon_raw[::dec][:ws] / dec + 0.5 / dec - 0.5
         radius = int(math.ceil(self.search_px / dec)) + 1
-        grad = cv2.Sobel(small, cv2.CV_32F, 0, 1, ksize=3)
+        rows_all = np.round(pred).astype(int)
+        # the vertical gradient of the strip the search covers only (one row of margin for the kernel)
+        lo = max(0, int(rows_all.min()) - radius - 1)
+        hi = min(hs, int(rows_all.max()) + radius + 2)
+        grad = cv2.Sobel(small[lo:hi], cv2.CV_32F, 0, 1, ksize=3) if hi - lo >= 3 else None
         offsets = []
         for band in np.array_split(np.arange(ws), HORIZON_BANDS):
-            rows = np.round(pred[band]).astype(int)
+            rows = rows_all[band]
             k = np.arange(-radius, radius + 1)
             idx = rows[None, :] + k[:, None]
-            if idx.min() < 1 or idx.max() >= hs - 1:
+            if grad is None or idx.min() < 1 or idx.max() >= hs - 1:
                 continue
-            profile = np.abs(grad[idx, band[None, :]].mean(axis=1))
+            profile = np.abs(grad[idx - lo, band[None, :]].mean(axis=1))
             best = int(np.argmax(profile))
             if 0 < best < len(k) - 1 and profile[best] > 2.0 * np.median(profile):
                 c_m, c_0, c_p = profile[best - 1:best + 2]
@@ -145,50 +162,96 @@ class Detector:
     def detect(self, left: np.ndarray) -> list[Blob]:
         """Candidate ships in one left image (grey uint8, full resolution), left to right."""
         dec = self.decimation
-        small = left if dec == 1 else cv2.resize(left, (self.width // dec, self.height // dec),
+        hs, ws = self.height // dec, self.width // dec
+        buf = self._buffers(hs, ws)
+        small = left if dec == 1 else cv2.resize(left, (ws, hs), dst=buf["small"],
                                                  interpolation=cv2.INTER_AREA)
-        hs, ws = small.shape
         horizon = self._refine_horizon(small)
-        shifts = self._shifts(horizon)
-        if shifts.any():  # horizon-level rows (a rolled camera tilts the horizon)
-            rows = np.clip(np.arange(hs)[:, None] + shifts[None, :], 0, hs - 1)
-            flat = small[rows, np.arange(ws)[None, :]].astype(np.int16)
-        else:
-            flat = small.astype(np.int16)
+        level_row = float(np.median(horizon))
+        shifts = (horizon - level_row).astype(np.float32)  # rows, fractional
+        flat = self._level(small, shifts, buf)
         step = max(BACKGROUND_STEP, ws // BACKGROUND_COLUMNS)
-        background = np.median(flat[:, ::step], axis=1).astype(np.int16)
+        background = _row_median(flat[:, ::step], buf["sorted"])
         # signed residual, averaged over a small box: noise drops by its sqrt(area), a solid hull does not
-        box = (max(3, (self.min_ship_px // (4 * dec)) | 1), 3 if dec == 1 else 1)
-        residual = np.abs(cv2.blur((flat - background[:, None]).astype(np.float32), box))
-        levels = self._levels(residual, int(round(float(np.median(horizon - shifts)))))
-        mask = (residual > levels[:, None]).astype(np.uint8)
+        box_w, box_h = max(3, (self.min_ship_px // (4 * dec)) | 1), 3 if dec == 1 else 1
+        flat -= background[:, None]
+        # the box mean as two 1-D passes (cv2.blur on float32 is several times slower; same result)
+        residual = cv2.sepFilter2D(flat, cv2.CV_32F, np.full(box_w, 1.0 / box_w, np.float32),
+                                   np.full(box_h, 1.0 / box_h, np.float32), dst=buf["residual"])
+        np.abs(residual, out=residual)
+        levels = self._levels(residual, int(round(level_row)))
+        mask = np.greater(residual, levels[:, None], out=buf["above"]).view(np.uint8)
         if dec == 1:  # single-row streaks are crests (at dec >= 2 one row is already two)
             mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_RECT, (1, 2)))
         close_w = max(3, int(round(self.min_ship_px / (4 * dec))) | 1)
         closing = cv2.getStructuringElement(cv2.MORPH_RECT, (close_w, 3))
-        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, closing)
-        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-        boxes = [[int(x), int(y), int(x + w), int(y + h), int(a), i]
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, closing, dst=buf["closed"])
+        # components inside the box that holds every set pixel (the same components, a fraction of the
+        # image), by Grana's block-based labelling (its statistics pass is the cheap one in OpenCV)
+        bx, by, bw, bh = cv2.boundingRect(mask)
+        if bw == 0 or bh == 0:
+            return []
+        labels = buf["labels"].reshape(-1)[:bw * bh].reshape(bh, bw)
+        n, labels, stats, _ = cv2.connectedComponentsWithStatsWithAlgorithm(
+            mask[by:by + bh, bx:bx + bw], 8, cv2.CV_32S, cv2.CCL_GRANA, labels=labels)
+        boxes = [[int(x) + bx, int(y) + by, int(x + w) + bx, int(y + h) + by, int(a), i]
                  for i, (x, y, w, h, a) in enumerate(stats[1:], start=1) if w * dec >= self.min_ship_px // 2]
         blobs = []
         for x0, y0, x1, y1, area, labs in _merge(boxes, gap=close_w):
             if (x1 - x0) * dec < MIN_LENGTH_SHARE * self.min_ship_px:  # a faint hull's ends sink in noise
                 continue
-            sel = np.isin(labels[y0:y1, x0:x1], labs)
+            sel = np.isin(labels[y0 - by:y1 - by, x0 - bx:x1 - bx], labs)
             resp = float(residual[y0:y1, x0:x1][sel].mean())
             dy = shifts[x0:x1]  # back from horizon-level rows to image rows
-            blob = Blob(x0 * dec, (y0 + int(dy.min())) * dec, x1 * dec, (y1 + int(dy.max())) * dec,
-                        area * dec * dec, resp)
+            top, bottom = y0 + math.floor(dy.min() + 0.5), y1 + math.floor(dy.max() + 0.5)
+            blob = Blob(x0 * dec, top * dec, x1 * dec, bottom * dec, area * dec * dec, resp)
             if self._plausible(blob, horizon):
                 blobs.append(blob)
         return blobs
 
-    def _shifts(self, horizon: np.ndarray) -> np.ndarray:
-        """Per-column row shift that levels the horizon (a rolled camera tilts it)."""
-        return np.round(horizon - np.median(horizon)).astype(np.intp)
+    def _buffers(self, hs: int, ws: int) -> dict[str, np.ndarray]:
+        """Work images kept between calls: a fresh multi-megabyte array per step costs the kernel's
+        page faults and zeroing on first touch, as much again as the arithmetic at 2048 x 1536."""
+        if self._buf is None or self._buf["flat"].shape != (hs, ws):
+            step = max(BACKGROUND_STEP, ws // BACKGROUND_COLUMNS)
+            self._buf = {"small": np.empty((hs, ws), np.uint8), "padded": np.empty((hs + 8, ws), np.float32),
+                         "flat": np.empty((hs, ws), np.float32), "residual": np.empty((hs, ws), np.float32),
+                         "sorted": np.empty((hs, len(range(0, ws, step))), np.float32),
+                         "above": np.empty((hs, ws), np.bool_), "closed": np.empty((hs, ws), np.uint8),
+                         "labels": np.empty((hs, ws), np.int32)}
+        return self._buf
+
+    def _level(self, small: np.ndarray, shifts: np.ndarray, buf: dict[str, np.ndarray]) -> np.ndarray:
+        """The image with each column moved up by its (fractional) shift, so the horizon is one row:
+        float32, linear between rows. Whole-row shifts would leave up to half a row of tilt, and
+        where the brightness changes fast down the rows (the horizon step, the haze near it) half a
+        row of it is a residual as strong as a hull, along every column run on the wrong side."""
+        hs = small.shape[0]
+        out = buf["flat"]
+        if not shifts.any():
+            np.copyto(out, small)
+            return out
+        whole = np.floor(shifts).astype(np.intp)
+        frac = shifts - whole
+        pad = int(np.abs(whole).max()) + 1
+        if buf["padded"].shape[0] < hs + 2 * pad:
+            buf["padded"] = np.empty((hs + 2 * pad, small.shape[1]), np.float32)
+        src = buf["padded"][:hs + 2 * pad]
+        np.copyto(src[pad:pad + hs], small)
+        src[:pad] = src[pad]  # rows past the edges repeat them
+        src[pad + hs:] = src[pad + hs - 1]
+        # runs of columns with the same whole-row shift (a few: the shift changes slowly along the horizon)
+        edges = [0, *(np.flatnonzero(np.diff(whole)) + 1).tolist(), len(whole)]
+        for c0, c1 in zip(edges[:-1], edges[1:], strict=True):
+            r0 = pad + int(whole[c0])
+            upper, lower = src[r0:r0 + hs, c0:c1], src[r0 + 1:r0 + 1 + hs, c0:c1]
+            np.multiply(lower - upper, frac[None, c0:c1], out=out[:, c0:c1])
+            out[:, c0:c1] += upper
+        return out
 
     def _levels(self, residual: np.ndarray, horizon_row: int) -> np.ndarray:
-        """Threshold per row: median + k MAD of |residual| over the row band (sky above, sea bands below)."""
+        """Threshold per row: median + k MAD of |residual| over the sky, and over each sea row band,
+        interpolated between the bands' centre rows (held beyond the first and last centres)."""
         hs = residual.shape[0]
         levels = np.empty(hs, np.float32)
         sample = residual[::2, ::max(BACKGROUND_STEP, residual.shape[1] // BACKGROUND_COLUMNS)]
@@ -197,6 +260,11 @@ class Detector:
         bands = [(0, top)] + [(b[0], b[-1] + 1) for b in split if len(b)]
         for r0, r1 in bands:
             levels[r0:r1] = _robust_level(sample[r0 // 2:(r1 + 1) // 2])
+        sea = bands[1:]
+        if len(sea) >= 2:
+            centres = np.array([0.5 * (r0 + r1 - 1) for r0, r1 in sea])
+            values = np.array([levels[r0] for r0, _ in sea])
+            levels[top:] = np.interp(np.arange(top, hs), centres, values)
         return levels
 
     def _plausible(self, blob: Blob, horizon: np.ndarray) -> bool:
@@ -223,6 +291,16 @@ def sea_range_at(rect: Rectifier, site_height_m: float, u: float, v: float) -> f
     """Horizontal range where the ray through rectified pixel (u, v) meets the sea (inf above the horizon)."""
     x, y = rect.rect_to_normalised(np.array([u, v]))
     return float(sea_range_m(math.atan2(y, math.hypot(1.0, x)), site_height_m))
+
+
+def _row_median(values: np.ndarray, work: np.ndarray) -> np.ndarray:
+    """np.median(values, axis=1), by one in-place sort in `work` (numpy's per-row partition is ten
+    times slower here)."""
+    np.copyto(work, values)
+    work.sort(axis=1)
+    ordered = work
+    n = ordered.shape[1]
+    return 0.5 * (ordered[:, (n - 1) // 2] + ordered[:, n // 2])
 
 
 def _robust_level(values: np.ndarray) -> float:

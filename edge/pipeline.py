@@ -136,16 +136,22 @@ class Pipeline:
         if self._since_detect >= min(self.cfg.detect_every, max(1, int(MAX_DETECT_INTERVAL_S * self.fps))):
             self._since_detect = 0
             self.counters.detections += 1
-            boxes = [self._rect_box(b.x0, b.y0, b.x1, b.y1) for b in self.detector.detect(left)]
+            boxes = self._rect_boxes([(b.x0, b.y0, b.x1, b.y1) for b in self.detector.detect(left)])
         tracks = self.table.step(left, right, t_ns, skipped, boxes)
         return self._fixes(tracks, t_ns)
 
-    def _rect_box(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
-        """Raw left-image box -> rectified box (corners and edge midpoints mapped)."""
-        xs, ys = (x0 - 0.5, 0.5 * (x0 + x1) - 0.5, x1 - 0.5), (y0 - 0.5, 0.5 * (y0 + y1) - 0.5, y1 - 0.5)
-        pts = self.rect.raw_to_rect(np.array([(x, y) for x in xs for y in ys]), 0)
-        return np.array([pts[:, 0].min() + 0.5, pts[:, 1].min() + 0.5, pts[:, 0].max() + 0.5,
-                         pts[:, 1].max() + 0.5])
+    def _rect_boxes(self, raw: list[tuple[int, int, int, int]]) -> list[np.ndarray]:
+        """Raw left-image boxes -> rectified boxes (corners and edge midpoints mapped), all boxes'
+        points through the lens model in one call (the undistortion costs ~0.1 ms a call)."""
+        if not raw:
+            return []
+        pts = []
+        for x0, y0, x1, y1 in raw:
+            xs, ys = (x0 - 0.5, 0.5 * (x0 + x1) - 0.5, x1 - 0.5), (y0 - 0.5, 0.5 * (y0 + y1) - 0.5, y1 - 0.5)
+            pts.extend((x, y) for x in xs for y in ys)
+        mapped = self.rect.raw_to_rect(np.array(pts), 0).reshape(len(raw), 9, 2)
+        lo, hi = mapped.min(axis=1) + 0.5, mapped.max(axis=1) + 0.5
+        return [np.array([a[0], a[1], b[0], b[1]]) for a, b in zip(lo, hi, strict=True)]
 
     # ------------------------------------------------------------ fixes
     def _fixes(self, tracks: list[Track], t_ns: int) -> list[ShipFix]:

@@ -16,8 +16,12 @@ their column spans, for boxes in the same rows), gated at a minimum overlap
   (ACQUIRING, Q) with a fresh id — ids are never reused — if there is room
   and its first match (when valid) passes the same waterline check;
 - Q becomes TRACKING (T) after `confirm_n` of the last `confirm_m`
-  detection passes confirmed it and its filter runs; a Q track that can no
-  longer reach that is dropped (glints and wave crests do not persist);
+  detection passes confirmed it and its filter has taken `min_updates`
+  measurements (as many as the Kalman's start takes: the sigma of a filter
+  one or two updates old rests on a noise level chosen from a handful of
+  samples, and a far ship's first samples can agree by chance); a Q track
+  that can no longer reach that is dropped (glints and wave crests do not
+  persist);
 - T becomes LOST (L) when no measurement was accepted for `coast_s`, or no
   detection confirmed it for `unconfirmed_s`; L turns back to T when both
   resume, and is dropped `drop_s` after it turned L.
@@ -37,6 +41,7 @@ from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
 from edge.fix import TrackStatus
+from edge.pointbatch import step_points
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
@@ -45,6 +50,8 @@ VERTICAL_SHARE = 0.25  # a ship's disparity changes by less than this share of t
 SLOPE_ROWS = 4  # rows above and below the point for that test
 ROW_SIGMA_PX = 0.5  # row uncertainty of the point for its height above the sea
 SEARCH_CANDIDATES = 6  # points offered to a track that lost its point on the ship
+GLINT_SPARE = 4  # extra candidates ranked, so those with glints can go last
+CLIPPED_DN = 250  # a window holding a pixel this bright holds a clipped sun glint
 
 
 @dataclass(frozen=True)
@@ -58,6 +65,7 @@ class TableSettings:
     waterline_tol_px: float = 4.0  # rows of slack in the waterline check (detection box bottom)
     max_ship_length_m: float = 400.0  # the point may be this much farther than the waterline's nearest
     min_height_m: float = 1.0  # a track's point must stand this far above the sea to become T
+    min_updates: int = 5  # ... and its filter have taken this many measurements since it (re)started
 
 
 class Track:
@@ -118,9 +126,11 @@ class TrackTable:
              boxes: list[np.ndarray] | None = None) -> list[Track]:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
-        for track in self.tracks:
-            candidates = lambda t=track: self._candidates(left, t.box, window=t.point.s.window)  # noqa: E731
-            alive = track.point.step(left, right, self.rect, skipped, candidates)
+        # every track's follow and match of this pair batched (edge.pointbatch; = point.step per track)
+        steps = [t.point.steps(left, right, self.rect, skipped,
+                               lambda t=t: self._candidates(left, t.box, window=t.point.s.window))
+                 for t in self.tracks]
+        for track, alive in zip(self.tracks, step_points(steps), strict=True):
             du, dv = track.point.jumped
             if du or dv:  # the point moved to another part of the ship: the ship's box did not
                 track.box_rel -= np.array([du, dv, du, dv])
@@ -171,10 +181,11 @@ class TrackTable:
 
     def _confirm(self, track: Track, box: np.ndarray, left: np.ndarray, right: np.ndarray, t_ns: int) -> bool:
         p = track.point
-        if not _contains(box, p.u, p.v) and p.prediction() is None:
-            # a point that never measured anything and is off the ship: start over on the ship (one
-            # with a range history stays: a searching point gets candidates from this box next pair)
-            p.reanchor(*self._candidates(left, box, 1, p.s.window)[0])
+        if p.prediction() is None and (p.searching or not _contains(box, p.u, p.v)):
+            # a point without a range history that is off the ship, or lost what it followed (a
+            # glint gone): start over on the ship, as a searching point with a prediction cannot
+            # (one with a history stays: it gets candidates from this box next pair)
+            p.reanchor(*self._reference(left, box, p.s.window))
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
         if track.status is TrackStatus.ACQUIRING and not p.searching:
             slope = self._slope(p, left, right)
@@ -192,7 +203,7 @@ class TrackTable:
         bx1, by1 = int(math.ceil(box[2])) + m, int(math.ceil(box[3])) + m
         patch = self.rect.patch(left, 0, bx0, by0, bx1 - bx0, by1 - by0)
         window = ship_window(patch, (bx0, by0), tuple(box), m)
-        u, v = self._candidates(left, box, 1, window)[0]
+        u, v = self._reference(left, box, window)
         point = TrackPoint(u, v, self.ps, self.designs, window)
         if not point.step(left, right, self.rect):
             return
@@ -206,16 +217,36 @@ class TrackTable:
         self.next_id += 1
         self.births += 1
 
+    def _reference(self, left: np.ndarray, box: np.ndarray, window: int | None = None) -> tuple[float, float]:
+        return self._candidates(left, box, 1, window)[0]
+
     def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES,
                     window: int | None = None) -> list:
-        """The best-textured points in the upper part of a (rectified) ship box, best first."""
+        """The best-textured points in the upper part of a (rectified) ship box, best first, for
+        `window` (default the configured one; a track's own, edge.anchor.ship_window).
+
+        Two kinds of window are avoided: (1) one across the bow or stern outline holds the sea
+        behind the ship, at another range, and its disparity is a mix of the two (a ship wider
+        than a window keeps its centres half a window inside its ends); (2) one holding clipped
+        pixels: a sun glint, the brightest texture there is, seen by one camera only and gone
+        within a few pairs (such windows come after all others, so a ship that is all glare
+        still gets a point)."""
         window = window or self.ps.window
         h = window // 2
         x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
         x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
         ox, oy = x0 - h - 1, y0 - h - 1
         patch = self.rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
-        return reference_points(patch, (x0, y0, x1, y1), (ox, oy), window, count)
+        cx0, cx1 = (x0 + h, x1 - h) if x1 - x0 > 2 * h + 1 else (x0, x1)
+        clipped = patch >= CLIPPED_DN
+        if not clipped.any():
+            return reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count)
+        points = reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count + GLINT_SPARE)
+        glare = [bool(clipped[int(v) - oy - h:int(v) - oy + h + 1, int(u) - ox - h:int(u) - ox + h + 1].any())
+                 for u, v in points]
+        ranked = [p for p, g in zip(points, glare, strict=True) if not g] + \
+            [p for p, g in zip(points, glare, strict=True) if g]
+        return ranked[:count]
 
     def _on_the_sea(self, disparity_px: float, box: np.ndarray) -> bool:
         """Is the measured disparity possible for a ship whose waterline is the box's bottom row?
@@ -284,7 +315,7 @@ class TrackTable:
             misses = len(track.confirmations) - hits
             if misses > s.confirm_m - s.confirm_n or t_ns - track.last_measured_ns > s.coast_s * 1e9:
                 self._drop(track)
-            elif hits >= s.confirm_n and track.point.disparity is not None and self._standing(track):
+            elif hits >= s.confirm_n and track.point.updates >= s.min_updates and self._standing(track):
                 track.status = TrackStatus.TRACKING
             return
         if not track.point.usable and track.point.scatter_px() is not None:

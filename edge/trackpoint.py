@@ -35,10 +35,10 @@ import numpy as np
 from edge.anchor import line_fit, median
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalman
-from edge.core.match import Match, match_point
-from edge.core.prefilter import NOISE_GAIN
+from edge.core.match import Match
 from edge.core.rectify import Rectifier
-from edge.core.refpoint import PointTrack, track_point
+from edge.core.refpoint import PointTrack
+from edge.pointbatch import Follow, Steps, follow_request, run_one, stereo_request
 from edge.ranging import Designs, accel_rung
 
 SUBPIXELS = ("cancel", "parabola", "none")
@@ -156,7 +156,13 @@ class TrackPoint:
         for good (off the image, or searched for longer than reacquire_s).
 
         `skipped` pairs were missing since the last call (the filters coast through them).
-        `candidates()` lists other points on the ship to try while searching."""
+        `candidates()` lists other points on the ship to try while searching. Runs `steps` with the
+        per-point core functions; `edge.pointbatch.step_points` runs many points' `steps` batched."""
+        return run_one(self.steps(left, right, rect, skipped, candidates))
+
+    def steps(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, skipped: int = 0,
+              candidates: Callable[[], list[tuple[float, float]]] | None = None) -> Steps:
+        """`step` as a generator that yields its core requests (edge.pointbatch) and is sent the answers."""
         for _ in range(skipped):
             self._coast()
         self.frame += 1
@@ -170,8 +176,8 @@ class TrackPoint:
             pu = self.u + self.u_rate_pxps / self.s.fps
             if abs(pu - self.template_at[2]) > self.template_reach:
                 self._take_template(self.last_left, rect)  # moved too far for the kept patch
-            found = self._follow(left, rect, pu)
-            if found is None:  # no sure match (flat, ambiguous): carry the point on its motion
+            found = yield self._follow(left, rect, pu)
+            if not found.valid:  # no sure match (flat, ambiguous): carry the point on its motion
                 self.follow_failures += 1
                 self.u = pu
                 if self.follow_failures > FOLLOW_FAILURES_TO_SEARCH:
@@ -185,7 +191,7 @@ class TrackPoint:
                 self.u, self.v = found.x_px + self.template_at[0], found.y_px + self.template_at[1]
         if self.searching:
             for u, v in candidates() if candidates is not None else []:
-                if self._try(u, v, left, right, rect):
+                if (yield from self._try(u, v, left, right, rect)):
                     return True
             self._coast()
             self.search_frames += 1
@@ -193,16 +199,17 @@ class TrackPoint:
         if not self._in_image(rect):
             self._coast()
             return False
-        self._measure(left, right, rect)
+        yield from self._measure(left, right, rect)
         return True
 
-    def _try(self, u: float, v: float, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> bool:
+    def _try(self, u: float, v: float, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> Steps:
         """Resume following at (u, v) if its disparity fits the filter's prediction (at once when
         there is no prediction)."""
         prediction = self.prediction()
         if (prediction is None and self.s.filter != "none") or not self._in_image(rect, round(u), round(v)):
             return False  # without a prediction any point would do: better lose the track than jump
-        m = self.match_at(left, right, rect, u, v, None if prediction is None else prediction[0])
+        pred = None if prediction is None else prediction[0]
+        m = yield stereo_request(self.s, left, right, rect, u, v, pred)
         if prediction is not None:
             tolerance = self.s.gate_sigma * math.hypot(prediction[1], self.noise_px)
             if not (m.valid and abs(m.disparity_px - prediction[0]) <= tolerance):
@@ -269,17 +276,13 @@ class TrackPoint:
         self.u += self.u_rate_pxps / self.s.fps
         self._filter(None)
 
-    def _follow(self, left: np.ndarray, rect: Rectifier, pu: float) -> PointTrack | None:
-        """The kept template's point found in this pair by the core's sub-pixel point tracker
+    def _follow(self, left: np.ndarray, rect: Rectifier, pu: float) -> Follow:
+        """Find the kept template's point in this pair with the core's sub-pixel point tracker
         (`edge.core.track_point`), searched around the predicted column `pu`."""
         x0, y0, tx, ty = self.template_at
         h_patch, w_patch = self.template.shape
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
-        found = track_point(self.template, current, tx - x0, ty - y0, window=self.s.window,
-                            search_radius=self.s.follow_radius_px, predicted_dx=pu - tx,
-                            subpixel=self.s.follow_subpixel, noise_dn=self.s.noise_dn,
-                            max_sigma_px=FOLLOW_MAX_SIGMA_PX)
-        return found if found.valid else None
+        return follow_request(self.s, self.template, current, tx - x0, ty - y0, pu - tx, FOLLOW_MAX_SIGMA_PX)
 
     def _off_track(self, found: PointTrack, pu: float) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
@@ -307,7 +310,7 @@ class TrackPoint:
         self.template_age = 0
         self.follow_costs.clear()
 
-    def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> None:
+    def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> Steps:
         self.last_left = left
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
@@ -317,7 +320,8 @@ class TrackPoint:
         worse = len(costs) >= 2 and costs[-1] > 2.0 * min(costs)
         if self.template is None or self.template_age >= TEMPLATE_REFRESH_S * self.s.fps or worse:
             self._take_template(left, rect)
-        m = self.match = self.match_at(left, right, rect, self.u, self.v, self.predicted_disparity())
+        m = yield stereo_request(self.s, left, right, rect, self.u, self.v, self.predicted_disparity())
+        self.match = m
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)
         if not self.accepted and self.kalman is not None and self.kalman.running:
@@ -355,19 +359,9 @@ class TrackPoint:
         self.u_filtered, self.u_rate_pxps = float(intercept), rate
 
     def match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
-                  pred: float | None) -> Match:
-        s, h = self.s, self.s.window // 2
-        ui, vi = int(round(u)), int(round(v))
-        d_hi = s.max_disparity
-        if pred is not None:
-            d_hi = max(4, min(d_hi, int(math.ceil(pred)) + s.search_radius_px + 1))
-        x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
-        get, gain = (rect.xsobel_patch, NOISE_GAIN) if s.prefilter == "xsobel" else (rect.patch, 1.0)
-        lp, rp = (get(image, side, x0, vi - h, width, 2 * h + 1) for side, image in enumerate((left, right)))
-        return match_point(lp, rp, u - x0, v - (vi - h), window=s.window, max_disparity=d_hi,
-                           predicted_disparity=pred, cost=s.cost, subpixel=s.subpixel,
-                           search_radius=s.search_radius_px if pred is not None else None,
-                           noise_dn=s.noise_dn * gain, max_sigma_px=s.max_sigma_px)
+                 pred: float | None) -> Match:
+        """The right match of left point (u, v), narrowed to `pred` when given (per point)."""
+        return stereo_request(self.s, left, right, rect, u, v, pred).run()
 
     def scatter_px(self) -> float | None:
         """Robust noise of the recent raw disparities: MAD of successive differences / sqrt(2)

@@ -63,9 +63,11 @@ def evaluate(pair: RealPair, pts: list[tuple[int, int, float]]) -> dict[str, np.
     pre_l, pre_r = xsobel(pair.left), xsobel(pair.right)
     methods = {
         "SSD+parabola (thesis)": (pair.left, pair.right, {"cost": "ssd", "subpixel": "parabola"}),
-        "ZSSD+cancel (raw)": (pair.left, pair.right, {}),
+        "ZSSD+cancel (raw)": (pair.left, pair.right, {"subpixel": "cancel"}),
         "xsobel15 + ZSSD+parabola": (pre_l, pre_r, {"subpixel": "parabola"}),
-        "xsobel15 + ZSSD+cancel": (pre_l, pre_r, {}),
+        "xsobel15 + ZSSD+cancel": (pre_l, pre_r, {"subpixel": "cancel"}),
+        "ZSSD+cancel6-gauss (raw, default)": (pair.left, pair.right, {}),
+        "xsobel15 + ZSSD+cancel6-gauss": (pre_l, pre_r, {}),
     }
     truth = np.array([pair.truth[y, x] for x, y, _ in pts])
     errors = {"OpenCV StereoBM (1/16 px)": np.array([bm[y, x] for x, y, _ in pts]) - truth}

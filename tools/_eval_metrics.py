@@ -31,6 +31,7 @@ from edge.fix import ShipFix, TrackStatus
 BINS_M = ((0, 1000), (1000, 2000), (2000, 3000), (3000, 4000), (4000, 5000))
 MIN_SHIP_PX = 20  # a ship counts for detection once it covers this many pixels (eq. 3.12)
 FIRST_T_LIMIT_S = 3.0
+HEADING_SPAN_S = 4.0  # a ship's course from its truth track over this long (longer than wave motion)
 
 
 @dataclass
@@ -45,8 +46,12 @@ class Ship:
     xyz_m: np.ndarray  # (n, 3) truth (bridge) positions
 
     def heading_at(self, i: int) -> float | None:
-        """Course (rad, from +Z toward +X) from the truth track around sample i; None if still."""
-        j0, j1 = max(0, i - 2), min(len(self.t_ns) - 1, i + 2)
+        """Course (rad, from +Z toward +X) from the truth track over HEADING_SPAN_S around sample i;
+        None if still. (The truth point sways and rolls with the waves: over a few samples a ship at
+        anchor seems to move at random headings, which would spin its outline.)"""
+        half_ns = int(HEADING_SPAN_S * 5e8)
+        j0 = int(np.searchsorted(self.t_ns, self.t_ns[i] - half_ns))
+        j1 = max(j0, int(np.searchsorted(self.t_ns, self.t_ns[i] + half_ns, side="right")) - 1)
         dx, dz = self.xyz_m[j1, 0] - self.xyz_m[j0, 0], self.xyz_m[j1, 2] - self.xyz_m[j0, 2]
         dt = (self.t_ns[j1] - self.t_ns[j0]) / 1e9
         if dt <= 0 or math.hypot(dx, dz) / dt < 0.2:

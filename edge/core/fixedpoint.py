@@ -8,6 +8,8 @@ DSP/FPGA port has a single page to read (DESIGN.md, "Fixed-point rules"):
   1 LSB of the float reference;
 - Butterworth biquad coefficients: Q14, state in Q(8 + 14) = Q22 pixels ("wide state", so a
   low cutoff never leaves a dead band);
+- base-2 logarithms of positive integers (the Gaussian curve model): Q24, from a 1024-entry
+  table of log2(1 + i/1024) with linear interpolation (error < 2^-22);
 - alpha-beta (steady-state Kalman) gains and state: Q24; its gate compares squared Q8
   residuals with Q16 px^2 thresholds.
 
@@ -18,6 +20,8 @@ the widths a port needs are stated beside each routine and checked by tests. Rou
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 # --- sub-pixel (eq. 5.2) ---------------------------------------------------------------
@@ -25,6 +29,14 @@ SUBPIX_BITS = 8                      # Q8 px at the interfaces (Match.disparity_
 SUBPIX_ONE = 1 << SUBPIX_BITS        # 256
 FIT_BITS = 10                        # Q10 px for each 3-point fit before the final rounding
 FIT_ONE = 1 << FIT_BITS
+
+# --- integer log2 (Gaussian sub-pixel model) ------------------------------------------------
+LOG_BITS = 24                        # Q24 log2 values
+LOG_TABLE_BITS = 10                  # 1024 intervals of the mantissa [1, 2)
+LOG2_TABLE = np.array([round(math.log2(1 + i / (1 << LOG_TABLE_BITS)) * (1 << LOG_BITS))
+                       for i in range((1 << LOG_TABLE_BITS) + 1)], dtype=np.int64)
+_LOG2_PAIRS = np.stack((LOG2_TABLE[:-1], np.diff(LOG2_TABLE)), axis=1)   # value, step (< 2^15)
+_POW2 = np.array([1 << i for i in range(63)], dtype=np.int64)
 
 # --- Butterworth biquad (eq. 6.1) ----------------------------------------------------------
 BIQUAD_COEF_BITS = 14                # Q14 coefficients (CMSIS postShift = 1 convention)
@@ -89,6 +101,21 @@ def restoring_divide(num: int, den: int, frac_bits: int) -> int:
         quotient = 1 << (frac_bits + 1)
     quotient = (quotient + 1) >> 1          # the extra bit rounds half away from zero
     return quotient if num >= 0 else -quotient
+
+
+def log2_q(values: np.ndarray) -> np.ndarray:
+    """log2 of an int64 array of positive values (< 2^62; not checked) in Q24, integer-only:
+    the exponent by comparison with powers of two (a port uses count-leading-zeros), the
+    mantissa normalised to 63 bits, its top 10 fraction bits index LOG2_TABLE and the next
+    30 interpolate linearly (floor).
+    Error against math.log2: < 2^-22 (table interpolation) + 2^-24 (floor)."""
+    e = np.searchsorted(_POW2, values, side="right") - 1             # floor(log2 v) <= 61
+    frac = (values << (62 - e)) - (1 << 62)          # mantissa fraction, 62 bits (no overflow)
+    low_bits = 62 - LOG_TABLE_BITS
+    idx = frac >> low_bits
+    pair = _LOG2_PAIRS[idx]                                         # table value and step
+    rest = (frac >> (low_bits - 30)) & ((1 << 30) - 1)               # next 30 fraction bits
+    return (e << LOG_BITS) + pair[..., 0] + ((pair[..., 1] * rest) >> 30)
 
 
 def saturate(value: int, bits: int = 32) -> int:

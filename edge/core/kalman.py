@@ -25,6 +25,34 @@ whose covariance grew. After `reacquire_s` of misses the track restarts. (Re)sta
 median of `init_samples` samples for d (so one outlier among them cannot lock the gate onto
 itself) and v = 0 with a rate prior in the start covariance: a 5-sample slope is noise at
 30 fps (sigma 0.03 px/frame for 0.1 px samples), larger than the rates it would estimate.
+
+Reported sigma (`sigma_px`), every term from the design:
+
+    sigma^2 = c^2 (P_k + C_m - C_0) + sigma_floor^2 + LSB^2 / 12                        (eq. K.1)
+
+P_k the Riccati variance of d after update k, C_m the coasted variance after m misses (both
+tabulated), sigma_floor the matcher's sub-pixel bias bound (a systematic error the filter passes
+at DC gain 1), LSB^2/12 the Q8 rounding of the output, c the coverage factor (1 by default).
+The steady-state error of d is a Gaussian sequence with lag-1 correlation
+
+    rho1 = ((I - K H) F P)_dd / P_dd,   from e' = (I - K H)(F e - w) + K n               (eq. K.2)
+
+With c = 1, sigma is an honest 1-sigma and, being Gaussian, the error leaves +-3 sigma in about
+0.27 % of frames (fewer here: the design's sigma_a exceeds a ship's d''). A track test asking
+for *no* estimate beyond 3 sigma in 10^5 frames needs more: by Rice's formula a stationary
+Gaussian sequence leaves +-u sigma about N arccos(rho1)/pi exp(-u^2/2) times in N frames, so
+bound_s > 0 sets N = bound_s fs and
+
+    c = max(1, sqrt(2 ln(N arccos(rho1) / (pi bound_risk))) / 3)                          (eq. K.3)
+
+which makes 3 sigma a bound over a bound_s long track, broken with probability bound_risk; it
+is a statement about the track's length and risk, not a tuning constant (c ~ 1.5 for 600 s, 5 %).
+For reports, `accel_lag_px` is the alpha-beta lag to a *sustained* d'' = sigma_a,
+
+    lag = sigma_a T^2 (1 - alpha) / beta  (~ sigma_meas for small tracking index)         (eq. K.4)
+
+It is not added: sigma_a is a white-noise level (already in P_k), tuned well above a ship's
+real d'', and the sustained-acceleration reading would make sigma ~4x the observed error.
 """
 
 from __future__ import annotations
@@ -37,6 +65,7 @@ import numpy as np
 from edge.core.fixedpoint import AB_BITS, SUBPIX_BITS, VAR_BITS, round_shift, to_q
 
 MAX_TABLE = 20000
+Q8_ROUNDING_VAR = 1.0 / (12 * (1 << SUBPIX_BITS) ** 2)   # output rounded to 1/256 px: uniform, var LSB^2/12
 
 
 @dataclass(frozen=True)
@@ -61,6 +90,9 @@ class KalmanDesign:
     coast_post: np.ndarray     # variance of the coasted estimate after m misses
     gate_q16: tuple[tuple[int, ...], ...]   # [k or coast m] -> (gate_sigma^2 * S) in Q16
     rewind: tuple[int, ...]    # k to continue with after m misses
+    rho1: float = 1.0          # lag-1 correlation of the steady-state error of d (eq. K.2)
+    coverage: float = 1.0      # factor on the random part of sigma_px (eq. K.3); 1 = plain 1-sigma
+    accel_lag_px: float = 0.0  # steady-state lag if d'' = sigma_a were sustained (eq. K.4), for reports
 
     def table_index(self, k: int) -> int:
         return min(k, len(self.alpha) - 1)
@@ -68,12 +100,16 @@ class KalmanDesign:
 
 def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, *,
                   rate_prior_pxps: float = 1.0, sigma_floor_px: float = 0.01, gate_sigma: float = 3.0,
-                  reacquire_s: float = 3.0, init_samples: int = 5) -> KalmanDesign:
+                  reacquire_s: float = 3.0, init_samples: int = 5, bound_s: float = 0.0,
+                  bound_risk: float = 0.01) -> KalmanDesign:
     """Run the Riccati recursion of the CV model to its steady state and tabulate it.
 
     rate_prior_pxps: 1-sigma of the disparity rate a new track may have (it starts at v = 0).
     sigma_floor_px: systematic error the filter cannot average away (the matcher's sub-pixel
-    bias bound); added in quadrature to the reported sigma, not to the gains."""
+    bias bound); added in quadrature to the reported sigma, not to the gains.
+    bound_s, bound_risk: 0 (default) reports the plain 1-sigma. bound_s > 0 scales the random
+    part of the reported sigma by the coverage factor of eq. K.3, so that 3 sigma_px bounds
+    every estimate of a bound_s long track except with probability bound_risk."""
     if fs_hz <= 0 or sigma_meas_px <= 0 or sigma_accel_pxps2 <= 0:
         raise ValueError("fs_hz, sigma_meas_px and sigma_accel_pxps2 must be positive")
     r = sigma_meas_px**2
@@ -110,6 +146,17 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     pred_arr = np.array(pred)
     # after m misses continue at the first k whose predicted variance is <= the coasted one
     rewind = tuple(int(np.argmax(pred_arr <= cp)) if cp < pred_arr[0] else 0 for cp in coast_pred)
+    # eq. K.2: steady-state error e' = (I - K H) F e + ..., so E[e'_d e_d] = ((I - K H) F P)_dd
+    i_kh = np.eye(2) - np.outer([alpha[-1], beta[-1]], [1.0, 0.0])
+    rho1 = float(np.clip((i_kh @ f @ p)[0, 0] / p[0, 0], -1.0, 1.0))
+    coverage = 1.0
+    if bound_s > 0:
+        # eq. K.3 (Rice): a stationary Gaussian sequence with lag-1 correlation rho1 leaves the band
+        # +-u sigma about N arccos(rho1) / pi * exp(-u^2 / 2) times in N frames; set that to the risk
+        excursions = bound_s * fs_hz * np.arccos(rho1) / np.pi
+        coverage = max(1.0, float(np.sqrt(2.0 * np.log(max(excursions / bound_risk, 1.0)))) / 3.0)
+    # eq. K.4: a sustained d'' = a leaves the alpha-beta filter a T^2 (1 - alpha) / beta behind
+    accel_lag = sigma_accel_pxps2 / fs_hz**2 * (1.0 - alpha[-1]) / beta[-1]
     g2 = gate_sigma**2
     gate_k = tuple(to_q(g2 * (pv + r), VAR_BITS) for pv in pred)
     gate_m = tuple(to_q(g2 * (cp + r), VAR_BITS) for cp in coast_pred)
@@ -117,7 +164,8 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
                         init_samples, p0_dd,
                         np.array(alpha), np.array(beta), tuple(to_q(a, AB_BITS) for a in alpha),
                         tuple(to_q(b, AB_BITS) for b in beta), pred_arr, np.array(post),
-                        np.array(coast_pred), np.array(coast_post), (gate_k, gate_m), rewind)
+                        np.array(coast_pred), np.array(coast_post), (gate_k, gate_m), rewind,
+                        rho1, coverage, float(accel_lag))
 
 
 @dataclass(frozen=True)
@@ -214,10 +262,11 @@ class _CVFilter(ABC):
         """Predicted 1-sigma of the current estimate (grows while coasting)."""
         d = self.design
         var = d.post_var[d.table_index(self.k - 1)] if self.k else d.start_var
-        var += d.sigma_floor_px**2
         if self.misses:
             m = min(self.misses, len(d.coast_post) - 1)
             var += d.coast_post[m] - d.coast_post[0]
+        # eq. K.1: random part (times the coverage factor, eq. K.3), bias floor, Q8 output rounding
+        var = d.coverage**2 * var + d.sigma_floor_px**2 + Q8_ROUNDING_VAR
         return float(np.sqrt(var))
 
 

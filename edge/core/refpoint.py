@@ -77,11 +77,30 @@ def _axis_fit(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa:
     return (float(value) if arith.is_float else from_q(int(value), SUBPIX_BITS)), ""
 
 
-def track_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window: int = 15,
-                search_radius: int = 4, predicted_dx: float = 0.0, predicted_dy: float = 0.0,
-                subpixel: str = "cancel", noise_dn: float = 1.0, min_ratio: float = 1.1,
-                max_sigma_px: float = 0.3, impl: str = "int") -> PointTrack:
-    """Where did point (x, y) of `prev` go in `cur`? See the module doc."""
+def _curve_fit(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d0: int,
+               costs: np.ndarray) -> tuple[float | None, str]:
+    """`_axis_fit` (parabola) on the 3-point curve for d0 - 1 .. d0 + 1 already at hand."""
+    value, reason = refine(arith, a_band, b_band, xa, d0 - 1, costs, 1, "parabola")
+    if value is None:
+        return None, reason
+    return (float(value) if arith.is_float else from_q(int(value), SUBPIX_BITS)), ""
+
+
+@dataclass(frozen=True, slots=True)
+class FollowSite:
+    """Where one follow searches: the point, its window centre and the rounded predicted motion."""
+
+    xf: float
+    yf: float
+    xi: int
+    yi: int
+    pu: int
+    pv: int
+
+
+def follow_site(prev: np.ndarray, cur: np.ndarray, x: float, y: float, window: int, search_radius: int,
+                predicted_dx: float, predicted_dy: float) -> FollowSite | PointTrack:
+    """The search of `track_point` for (x, y), or the failed PointTrack saying why there is none."""
     if window < 3 or window % 2 == 0 or search_radius < 1:
         raise ValueError("window must be odd >= 3 and search_radius >= 1")
     problem = check_images(prev, cur)
@@ -101,42 +120,85 @@ def track_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window
     if (min(xi, xi + pu) - r - m < 0 or max(xi, xi + pu) + r + m >= width
             or min(yi, yi + pv) - r - m < 0 or max(yi, yi + pv) + r + m >= height):
         return _fail("point too close to the image border for window and search", xf, yf)
+    return FollowSite(xf, yf, xi, yi, pu, pv)
 
-    prev_t, cur_t = prev.T, cur.T
-    gx = gradient_energy(prev[yi - h:yi + h + 1], xi - h, window)
-    gy = gradient_energy(prev_t[xi - h:xi + h + 1], yi - h, window)
+
+def texture_sigmas(gx: int, gy: int, noise_dn: float) -> tuple[float, float]:
+    """Predicted 1-sigma of the follow in x and y from the window's gradient energies
+    (sum G^2, G = 2 I' as `gradient_energy` gives it)."""
     sx = noise_dn * math.sqrt(8.0 / gx) if gx else math.inf        # sqrt(2 / sum Ix^2)
     sy = noise_dn * math.sqrt(8.0 / gy) if gy else math.inf
+    return sx, sy
+
+
+def track_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window: int = 15,
+                search_radius: int = 4, predicted_dx: float = 0.0, predicted_dy: float = 0.0,
+                subpixel: str = "cancel", noise_dn: float = 1.0, min_ratio: float = 1.1,
+                max_sigma_px: float = 0.3, impl: str = "int") -> PointTrack:
+    """Where did point (x, y) of `prev` go in `cur`? See the module doc."""
+    site = follow_site(prev, cur, x, y, window, search_radius, predicted_dx, predicted_dy)
+    if isinstance(site, PointTrack):
+        return site
+    xi, yi, h, r = site.xi, site.yi, window // 2, search_radius
+    gx = gradient_energy(prev[yi - h:yi + h + 1], xi - h, window)
+    gy = gradient_energy(prev.T[xi - h:xi + h + 1], yi - h, window)
+    sx, sy = texture_sigmas(gx, gy, noise_dn)
     if not (sx <= max_sigma_px and sy <= max_sigma_px):
-        return _fail("too little texture in x or y", xf, yf, sx, sy)
+        return _fail("too little texture in x or y", site.xf, site.yf, sx, sy)
 
     arith = CostArithmetic(impl, "zssd")
-    a_rows = prev[yi - h:yi + h + 1]
-    template = a_rows[:, xi - h:xi + h + 1]
-    x0 = xi + pu - r - h
-    rows = cur[yi + pv - r - h:yi + pv + r + h + 1, x0:x0 + window + 2 * r]
+    template = prev[yi - h:yi + h + 1, xi - h:xi + h + 1]
+    x0 = xi + site.pu - r - h
+    rows = cur[yi + site.pv - r - h:yi + site.pv + r + h + 1, x0:x0 + window + 2 * r]
     bands = sliding_window_view(rows, window, axis=0).transpose(0, 2, 1)   # (2r+1, w, w+2r)
     if impl == "int":
         costs = cost_curve(template, bands, "zssd")                # [v index, u index], one call
     else:
         costs = np.stack([arith.curve_fn(template.astype(arith.dtype), band.astype(arith.dtype))
                           for band in bands])
-    iy, ix = (int(i) for i in np.unravel_index(int(np.argmin(costs)), costs.shape))
+    return finish_follow(prev, cur, site, costs, (sx, sy), arith, window=window,
+                         search_radius=search_radius, subpixel=subpixel, min_ratio=min_ratio)
+
+
+def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np.ndarray,
+                  sigmas: tuple[float, float], arith: CostArithmetic, *, window: int, search_radius: int,
+                  subpixel: str, min_ratio: float, best: tuple[int, int] | None = None,
+                  ratio: float | None = None, curves_from_costs: bool = False) -> PointTrack:
+    """`track_point` after the integer search: validity gates and the separable sub-pixel fits.
+
+    costs[v index, u index] is the (2r+1)^2 cost square; `best` (the (v, u) index of its first
+    minimum) and `ratio` (its second-best ratio) when already known. curves_from_costs: take the
+    parabola fits' 3-point curves from the square (the same integers: ZSSD of the transposed
+    windows is that of the windows) instead of recomputing them."""
+    xf, yf, xi, yi = site.xf, site.yf, site.xi, site.yi
+    sx, sy = sigmas
+    h, r = window // 2, search_radius
+    if best is None:
+        best = tuple(int(i) for i in np.unravel_index(int(np.argmin(costs)), costs.shape))
+    iy, ix = best
     if not (0 < iy < 2 * r and 0 < ix < 2 * r):
         return _fail("minimum on the edge of the search square", xf, yf, sx, sy)
-    ratio = _second_ratio_2d(costs, iy, ix)
+    if ratio is None:
+        ratio = _second_ratio_2d(costs, iy, ix)
     if ratio < min_ratio:
         return _fail(f"ambiguous: second-best cost only {ratio:.3f}x the best", xf, yf, sx, sy)
-    u0, v0 = pu - r + ix, pv - r + iy
+    u0, v0 = site.pu - r + ix, site.pv - r + iy
+    a_rows, prev_t, cur_t = prev[yi - h:yi + h + 1], prev.T, cur.T
+    from_costs = curves_from_costs and subpixel == "parabola"
 
     def along_x(v: int) -> tuple[float | None, str]:      # motion u on the rows at offset v
-        d, why = _axis_fit(arith, a_rows, cur[yi + v - h:yi + v + h + 1], xi, -u0, subpixel)
-        return (None if d is None else -d), why
+        b_rows = cur[yi + v - h:yi + v + h + 1]
+        if from_costs:                                     # d = -u ascending: u = u0+1, u0, u0-1
+            k = v - site.pv + r
+            return _negated(_curve_fit(arith, a_rows, b_rows, xi, -u0, costs[k, ix - 1:ix + 2][::-1]))
+        return _negated(_axis_fit(arith, a_rows, b_rows, xi, -u0, subpixel))
 
     def along_y(u: int) -> tuple[float | None, str]:      # motion v on the columns at offset u
-        d, why = _axis_fit(arith, prev_t[xi - h:xi + h + 1], cur_t[xi + u - h:xi + u + h + 1], yi, -v0,
-                           subpixel)
-        return (None if d is None else -d), why
+        a_cols, b_cols = prev_t[xi - h:xi + h + 1], cur_t[xi + u - h:xi + u + h + 1]
+        if from_costs:
+            k = u - site.pu + r
+            return _negated(_curve_fit(arith, a_cols, b_cols, yi, -v0, costs[iy - 1:iy + 2, k][::-1]))
+        return _negated(_axis_fit(arith, a_cols, b_cols, yi, -v0, subpixel))
 
     # separable fits at the integer offsets, then again one row/column further towards the
     # fractional offset; the estimate is linear in the cross-axis offset for a quadratic cost
@@ -152,5 +214,10 @@ def track_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window
         return _fail(why_u or why_v, xf, yf, sx, sy)
     u = u_a + abs(ty) * (u_b - u_a)
     v = v_a + abs(tx) * (v_b - v_a)
-    best = float(costs[iy, ix]) * (window * window if arith.is_float else 1)
-    return PointTrack(True, xf + u, yf + v, u, v, best, sx, sy, "")
+    cost = float(costs[iy, ix]) * (window * window if arith.is_float else 1)
+    return PointTrack(True, xf + u, yf + v, u, v, cost, sx, sy, "")
+
+
+def _negated(fit: tuple[float | None, str]) -> tuple[float | None, str]:
+    d, why = fit
+    return (None if d is None else -d), why

@@ -105,10 +105,11 @@ class TrackRun:
     t_closest_s: float
 
 
-def kalman_filter_maker(fs_hz: float, sigma_meas_px: float, sigma_a: float
+def kalman_filter_maker(fs_hz: float, sigma_meas_px: float, sigma_a: float, **design_kw: float
                         ) -> Callable[[], Callable[[float | None], tuple[float, float]]]:
-    """`make_filter` for `run_track`: a fresh fixed-point Kalman per run, NaN until it has an estimate."""
-    design = design_kalman(fs_hz, sigma_meas_px, sigma_a)
+    """`make_filter` for `run_track`: a fresh fixed-point Kalman per run, NaN until it has an estimate.
+    design_kw go to `design_kalman` (sigma_floor_px, bound_s, ...)."""
+    design = design_kalman(fs_hz, sigma_meas_px, sigma_a, **design_kw)
 
     def make() -> Callable[[float | None], tuple[float, float]]:
         f = DisparityKalman(design)

@@ -7,6 +7,7 @@ import csv
 import io
 import shutil
 
+import cv2
 import pynmea2
 import pytest
 
@@ -67,3 +68,30 @@ def test_not_a_recording_is_a_configuration_error(tmp_path) -> None:
     with pytest.raises(ConfigError) as err:
         replay(tmp_path)
     assert "recording" in err.value.message
+
+
+def test_truncated_and_wrong_size_frames_are_counted_not_raised(akashi, tmp_path) -> None:
+    damaged = tmp_path / "rec"
+    shutil.copytree(akashi, damaged)
+    png = damaged / "left" / "000007.png"
+    png.write_bytes(png.read_bytes()[: png.stat().st_size // 2])  # cut off mid-stream
+    small = cv2.imread(str(damaged / "right" / "000013.png"), cv2.IMREAD_UNCHANGED)[::2, ::2]
+    cv2.imwrite(str(damaged / "right" / "000013.png"), small)  # readable, but not the calibrated size
+    _, _, summary = _run(damaged)
+    p = summary.pipeline
+    assert p.bad_input == 1 and p.failed == 0
+    # every pair is accounted for: unreadable ones skipped by the source, the rest refused or processed
+    assert summary.skipped_pairs + p.pairs == FRAMES and p.processed + p.bad_input == p.pairs
+    assert summary.skipped_pairs <= 1 and p.processed >= FRAMES - 2
+    assert any("refused 1" in line for line in summary.lines())
+
+
+def test_an_empty_sea_plays_to_the_end_with_counts(recording) -> None:
+    path = recording("akashi-crossing", 25, edit="no-ships")  # the render test_detect uses
+    _, tracks, summary = _run(path)
+    p = summary.pipeline
+    assert summary.pairs_in_recording == p.pairs == p.processed == 25 and p.failed == p.bad_input == 0
+    assert p.detections >= 25 // 5  # detection ran on schedule and found no ship to confirm
+    statuses = [row["status"] for row in csv.DictReader(io.StringIO(tracks))]
+    assert "T" not in statuses and "L" not in statuses  # waves never become ship tracks
+    assert len(summary.lines()) == 3 and "processed 25" in summary.lines()[1]

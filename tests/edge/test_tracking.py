@@ -1,11 +1,16 @@
-"""TrackTable: box overlap, the sea/ship slope test on synthetic planes, ids and the Q -> T lifecycle
-on a rendered recording."""
+"""TrackTable: box overlap, the sea/ship slope test on synthetic planes, where a track's point may sit on
+its ship (off glints, off the ends), ids and the Q -> T lifecycle on rendered recordings."""
 
 from __future__ import annotations
+
+import math
 
 import cv2
 import numpy as np
 import pytest
+from helpers import band_texture, shifted_u8
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from drivers.camera.replay import ReplaySource
 from edge.core.camera import PinholeCamera, StereoRig
@@ -13,7 +18,8 @@ from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
 from edge.pipeline import Pipeline
 from edge.replay import recording_calibration
-from edge.tracking import TableSettings, TrackTable, _overlap
+from edge.sim.recording import read_truth
+from edge.tracking import CLIPPED_DN, TableSettings, Track, TrackTable, _overlap
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 W, H, F, B, HEIGHT = 400, 300, 900.0, 8.0, 25.0
@@ -40,6 +46,72 @@ def _pair(disparity_of_row) -> tuple[np.ndarray, np.ndarray]:
     return to8(tex), to8(right)
 
 
+def _table() -> TrackTable:
+    cam = PinholeCamera(F, F, (W - 1) / 2, (H - 1) / 2)
+    s = PointSettings(fps=10.0, max_disparity=64, baseline_m=B, focal_px=F)
+    return TrackTable(Rectifier(StereoRig(B, W, H, cam, cam)), HEIGHT, s, TableSettings())
+
+
+def _ship_on_a_textured_sea(seed: int, box: tuple[int, int, int, int]) -> np.ndarray:
+    """Left image: sea texture everywhere (the ship's ends stand against it), a textured ship in `box`."""
+    x0, y0, x1, y1 = box
+    left = shifted_u8(0.6 * band_texture(seed, H, W), 0.0)  # (~0.6 * 128 +- 36: nothing clips)
+    left[y0:y1, x0:x1] = shifted_u8(0.3 * band_texture(seed + 1, y1 - y0, x1 - x0), 0.0)  # darker hull
+    return left
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.integers(0, 59), st.integers(0, 11), st.integers(16, 60))
+def test_candidates_keep_off_glints_and_off_the_ship_ends(seed: int, du: int, dv: int, length: int) -> None:
+    """Every candidate's window lies within the ship's columns when the ship is wider than a window
+    (else its centre lies on the ship); windows holding a clipped pixel (a glint on the upper part of
+    the ship) come after all others, and the best one is clean whenever the ship has a column that
+    glinted windows and their neighbourhoods (half a window each) cannot cover."""
+    x0, y0, y1 = 150, 140, 160
+    x1 = x0 + length
+    left = _ship_on_a_textured_sea(seed, (x0, y0, x1, y1))
+    gu, gv = x0 + du % length, y0 + dv
+    left[gv - 1:gv + 2, gu - 1:gu + 2] = 255  # a clipped sun glint, a few pixels across
+    table = _table()
+    h = table.ps.window // 2
+    points = table._candidates(left, np.array([x0, y0, x1, y1], float))
+    assert points
+    lo, hi = (x0 + h, x1 - h) if length > 2 * h + 1 else (x0, x1)
+    assert all(lo <= u < hi and y0 <= v < y1 for u, v in points)
+    glare = [bool(left[int(v) - h:int(v) + h + 1, int(u) - h:int(u) + h + 1].max() >= CLIPPED_DN)
+             for u, v in points]
+    assert glare == sorted(glare)  # clean ones first
+    if any(abs(c - gu) > 2 * h + 1 for c in range(lo, hi)):
+        assert not glare[0]
+
+
+def test_a_ship_all_glare_still_gets_a_point() -> None:
+    left = _ship_on_a_textured_sea(1, (150, 140, 200, 160))
+    left[130:170, 140:210] = 255
+    assert len(_table()._candidates(left, np.array([150.0, 140.0, 200.0, 160.0]))) >= 1
+
+
+def test_a_searching_point_restarts_on_its_ship_only_without_a_range_history() -> None:
+    """Without a prediction a searching point cannot check a candidate, so the next detection puts it
+    back on the ship; with one it keeps its place (its candidates must fit the range it has)."""
+    table = _table()
+    left, right = _pair(lambda v: 14.0)
+    box = np.array([150.0, 150.0, 230.0, 175.0])
+    fresh = TrackPoint(120.0, 200.0, table.ps, table.designs)  # never measured: no prediction
+    ranged = TrackPoint(190.0, 160.0, table.ps, table.designs)
+    for _ in range(8):
+        ranged.step(left, right, table.rect)
+    assert fresh.prediction() is None and ranged.prediction() is not None
+    for point in (fresh, ranged):
+        point.searching = True
+        before = (point.u, point.v)
+        table._confirm(Track(1, 0, point, box, 5), box, left, right, 0)
+        if point is fresh:
+            assert not point.searching and (point.u, point.v) == table._reference(left, box)
+        else:
+            assert point.searching and (point.u, point.v) == before
+
+
 @pytest.mark.parametrize("sea", [True, False])
 def test_slope_tells_the_sea_from_a_ship_side(sea: bool) -> None:
     """The sea's disparity grows by L_B / h per row below the horizon (flat-sea approximation,
@@ -60,7 +132,7 @@ def test_slope_tells_the_sea_from_a_ship_side(sea: bool) -> None:
         assert abs(slope) < 0.02
 
 
-def test_ids_are_never_reused_and_q_needs_confirmations(recording) -> None:
+def test_ids_are_never_reused_and_q_needs_confirmations_and_a_running_filter(recording) -> None:
     path = recording("akashi-crossing", 30)
     with ReplaySource(path) as src:
         pairs, meta = list(src), src.meta
@@ -77,8 +149,34 @@ def test_ids_are_never_reused_and_q_needs_confirmations(recording) -> None:
                 seen_ids.append(t.id)
             if t.status is TrackStatus.TRACKING and t.id not in first_t:
                 first_t[t.id] = pair.t_ns / 1e9
+                assert t.point.updates >= pipe.table.s.min_updates  # the filter has run, not just started
     assert len(set(seen_ids)) == len(seen_ids) == pipe.table.births
     period = pipe.cfg.detect_every / meta["fps"]
     assert first_t, "the freighter must become T"
     for tid, t in first_t.items():  # confirm_n detection passes, the birth being the first
         assert t - born[tid] >= (pipe.table.s.confirm_n - 1) * period - 1e-9
+
+
+def test_ships_among_glints_become_t_within_3_s_and_glints_never_do(recording) -> None:
+    """The glints scenario (40 one-view glints a second, a third on the ships): both ships cover
+    more than 20 px from the start (30 m at 800 m, 75 m at 2 km: 34 px at f = 914 px) and must be
+    T within 3 s; every T fix points at a ship (bearing within its half-length) and lies within
+    3 reported sigma of a disc around the ship's bridge that holds its whole hull."""
+    path = recording("glints", 40)
+    with ReplaySource(path) as src:
+        pairs, meta = list(src), src.meta
+    truth = read_truth(path)
+    size = {int(s["id"]): math.hypot(float(s["length_m"]), float(s["beam_m"])) for s in meta["ships"]}
+    pipe = Pipeline(recording_calibration(path, meta), fps=meta["fps"])
+    first_t: dict[int, float] = {}
+    for k, pair in enumerate(pairs):
+        for fix in pipe.step(pair):
+            if fix.status is not TrackStatus.TRACKING:
+                continue
+            ship = min(truth, key=lambda i: abs(math.atan2(fix.x_m, fix.z_m)
+                                                - math.atan2(truth[i][k, 1], truth[i][k, 3])))
+            x, z = truth[ship][k, 1], truth[ship][k, 3]
+            assert abs(math.atan2(fix.x_m, fix.z_m) - math.atan2(x, z)) * math.hypot(x, z) <= size[ship]
+            assert math.hypot(fix.x_m - x, fix.z_m - z) <= size[ship] + 3.0 * fix.sigma_m
+            first_t.setdefault(ship, pair.t_ns / 1e9)
+    assert set(first_t) == set(truth) and max(first_t.values()) <= 3.0, first_t

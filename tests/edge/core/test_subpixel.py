@@ -4,6 +4,7 @@ pixel-locking removal on exact-shift renders."""
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 from hypothesis import given
@@ -11,7 +12,7 @@ from hypothesis import strategies as st
 
 from edge.core import subpixel as sp
 from edge.core.costs import cost_curve_reference
-from edge.core.fixedpoint import FIT_ONE, SUBPIX_ONE
+from edge.core.fixedpoint import FIT_ONE, LOG_BITS, SUBPIX_ONE, log2_q, round_shift
 from edge.core.match import match_point
 from edge.core.synth import Condition, sweep
 
@@ -48,6 +49,58 @@ def test_cancellation_rounding_within_one_q8_lsb(fits: list[int]) -> None:
     assert abs(sp.symmetric_q8(a, b, ra, rb) / SUBPIX_ONE - sp.symmetric_float(*f)) < 1 / SUBPIX_ONE
 
 
+@given(st.lists(st.integers(-(1 << 20), 1 << 20), min_size=6, max_size=6))
+def test_six_pass_rounding_within_one_q8_lsb(fits: list[int]) -> None:
+    f = [v / FIT_ONE for v in fits]
+    assert abs(sp.symmetric6_q8(*fits) / SUBPIX_ONE - sp.symmetric6_float(*f)) < 1 / SUBPIX_ONE
+    # consistent estimates d, d - 1/2, d, d + 1/2 (and the mirrored pair) average back to d exactly
+    d = fits[0]
+    half = FIT_ONE // 2
+    assert sp.symmetric6_q8(d, d - half, d, d + half, d - half, d + half) == round_shift(d, 2)
+
+
+@given(st.lists(st.integers(1, (1 << 62) - 1), min_size=1, max_size=40))
+def test_integer_log2_within_table_error(values: list[int]) -> None:
+    got = log2_q(np.array(values, dtype=np.int64))
+    for v, q in zip(values, got.tolist(), strict=True):
+        assert abs(q / (1 << LOG_BITS) - math.log2(v)) < 2**-21
+        if v & (v - 1) == 0:                          # powers of two are exact
+            assert q == (v.bit_length() - 1) << LOG_BITS
+
+
+@given(st.integers(1, 1 << 20), st.integers(-1000, 1000), st.integers(-(1 << 40), 1 << 40))
+def test_gauss_fit_recovers_vertex_of_a_log_parabola(a: int, t_q10: int, c0: int) -> None:
+    # y(k) = a (1024 k - t)^2 + c0 for k = 0, 1, 2 around the cost minimum at k = 1
+    model = [a * (1024 * (k - 1) - t_q10) ** 2 + c0 for k in range(3)]
+    model = [model[0] + 1] + model + [model[2] + 1]             # a curve of 5 with its minimum inside
+    if min(model[1:4]) != min(model) or model.index(min(model)) != 2:
+        return
+    assert sp.gauss_fit_q(model, 6) == (8 << 10) + t_q10
+    f = sp.gauss_fit_float([float(v) for v in model], 6)
+    assert f is not None and abs(f - 8 - t_q10 / 1024) < 1e-6
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(3, 9))
+def test_ncc_log_curves_integer_equals_float_reference(seed: int, d0: int) -> None:
+    rng = np.random.default_rng(seed)
+    left = rng.integers(20, 230, (9, 40), dtype=np.uint8)
+    right = np.clip(left.astype(int) + rng.integers(-20, 21, left.shape), 0, 255).astype(np.uint8)
+    model = sp.ncc_log_curves(left, right, 22, d0)
+    f_model = sp.ncc_log_curves(left, right, 22, d0, as_float=True)
+    assert (model is None) == (f_model is None)
+    if model is not None:
+        for m, fm in zip(model, f_model, strict=True):
+            # integer Q24 logs of N-scaled sums: the float model plus one constant (log2 of N, 2)
+            offset = np.array(m) / (1 << LOG_BITS) - np.array(fm)
+            assert np.ptp(offset) < 2**-18
+    half = right // 2
+    base, doubled = (sp.ncc_log_curves(left, r, 22, d0) for r in (half, 2 * half))
+    assert (base is None) == (doubled is None)
+    if base is not None:                       # NCC ignores a camera gain (here exactly 2)
+        for b, g in zip(base, doubled, strict=True):
+            assert np.ptp((np.array(g) - np.array(b)) / (1 << LOG_BITS)) < 2**-18
+
+
 def _explicit_curve(t_img: np.ndarray, b_img: np.ndarray, x: int, ds: range, h: int) -> np.ndarray:
     """Independent route: slice each candidate window of pre-built images, plain int64 SSD."""
     t = t_img[:, x - h:x + h + 1]
@@ -71,6 +124,15 @@ def test_cancellation_costs_equal_explicit_half_pixel_images(seed: int, d0: int)
     np.testing.assert_array_equal(ra, _explicit_curve(rh, lh, xr, range(-d0 - 2, -d0 + 3), h))
     np.testing.assert_array_equal(rb, _explicit_curve(rh, 2 * left.astype(np.int64), xr,
                                                       range(-d0 - 2, -d0 + 2), h))
+    six = sp.cancellation_costs(left, right, xl, d0, "ssd", six=True)
+    for four, same in zip((a, b, ra, rb), six[:4], strict=True):
+        np.testing.assert_array_equal(four, same)
+    # mirrored passes: 2L(x) vs Rh(x - d - 1) puts Rh's half-pixel centre at x - d - 1/2, so the
+    # curve entry for d = d0-2 .. d0+1 is the explicit SSD against Rh shifted by one more column
+    np.testing.assert_array_equal(six[4], _explicit_curve(2 * left.astype(np.int64), rh, xl,
+                                                          range(d0 - 1, d0 + 3), h))
+    np.testing.assert_array_equal(six[5], _explicit_curve(2 * right.astype(np.int64), lh, xr,
+                                                          range(-d0 - 1, -d0 + 3), h))
 
 
 def test_contrast_equalisation_makes_costs_gain_invariant() -> None:

@@ -1,0 +1,325 @@
+"""Batched matching: the integer searches of many points' `track_point` and `match_point` in a
+few numpy operations, for a pipeline that follows and matches every track once per pair.
+
+Why: a 15x15 window's search is a few thousand multiply-adds, but each numpy call costs
+5-30 us whatever its size, so one point's search (a dozen calls) was mostly call overhead and
+the pipeline's cost grew by ~0.4 ms per track (tools/bench). Here the windows and search bands
+of all points are gathered into stacked arrays and their integer cost curves (match) and cost
+squares (follow) computed in one batched product each; the second-best ratios of the squares
+are vectorised too. What remains per point is the part after the integer search, done by the
+same functions the per-point routines use (`refpoint.finish_follow`; for the stereo match the
+gates and `match.refine`, so the sub-pixel method of match.py/subpixel.py carries over), and
+the parabola fits of the follow read their 3-point curves off the cost square instead of
+recomputing them.
+
+Results are bit-identical to `track_point` / `match_point` with impl="int" (the per-point
+functions stay the reference; tests/edge/core/test_batchmatch.py checks equality with
+hypothesis): all costs are exact integers in float64 (every partial sum < 2**53, see
+costs.py), so the batched summation order cannot change them. Points the fast path does not
+cover (bad images, non-finite values, borders, too little texture, empty ranges) are handed to
+the per-point function, which gives the reason.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from edge.core.costs import COSTS
+from edge.core.fixedpoint import SUBPIX_BITS, from_q
+from edge.core.match import (
+    SUBPIXEL_METHODS,
+    CostArithmetic,
+    Match,
+    check_images,
+    match_point,
+    refine,
+    round_half_away,
+    search_range,
+    second_best_ratio,
+)
+from edge.core.refpoint import FollowSite, PointTrack, finish_follow, follow_site, texture_sigmas, track_point
+
+_NO_COST = np.iinfo(np.int64).max  # border padding of the cost squares (never a local minimum's rival)
+_MATCH_SUBPIXEL = inspect.signature(match_point).parameters["subpixel"].default  # match_points follows it
+
+
+def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") -> np.ndarray:
+    """Integer cost of each template against every window of its region: (n, h, w) uint8 templates,
+    (n, H, W) uint8 regions -> (n, H - h + 1, W - w + 1) int64, entry [k, v, u] for the window at row
+    v, column u of region k. The same integers as `costs.cost_curve` on each row of windows
+    (SSD = sum T^2 - 2 sum T*R + sum R^2, ZSSD = N SSD - (sum T - sum R)^2), computed in floating
+    point on 8-bit data where every partial sum is an integer the format holds exactly."""
+    n_items, h, w = templates.shape
+    height, width = regions.shape[1:]
+    nv, nu = height - h + 1, width - w + 1
+    # cross-correlation: one product per item of the template's columns with all its rows of
+    # windows, [k, j] = sum_i T[i, k] R[v + i, j]; the diagonal sums over k give sum T*R at u = j - k.
+    # Every partial sum is an integer <= h w 255^2: float32 holds them exactly up to 2**24 (windows
+    # up to 16 x 16), which halves the product's cost; larger windows take float64
+    exact = np.float32 if h * w * 255 * 255 < 2**24 else np.float64
+    rows = sliding_window_view(regions.astype(exact), h, axis=1).transpose(0, 3, 1, 2)
+    prod = np.matmul(templates.astype(exact).transpose(0, 2, 1), rows.reshape(n_items, h, nv * width))
+    prod = prod.reshape(n_items, w, nv, width)
+    cross = prod[:, 0, :, :nu].copy()
+    for k in range(1, w):
+        cross += prod[:, k, :, k:k + nu]
+    t = templates.astype(np.float64)
+    # window sums of R and R^2 from one integral image of the regions stacked (h zero rows below
+    # so every item's windows have their bottom corner row); rectangles never cross items
+    stacked = np.zeros((n_items * height + h, width), np.uint8)
+    stacked[:n_items * height] = regions.reshape(n_items * height, width)
+    integrals = np.stack(cv2.integral2(stacked, sdepth=cv2.CV_64F, sqdepth=cv2.CV_64F))
+    top = integrals[:, :n_items * height].reshape(2, n_items, height, width + 1)[:, :, :nv]
+    bottom = integrals[:, h:h + n_items * height].reshape(2, n_items, height, width + 1)[:, :, :nv]
+    rows_sum = bottom - top
+    box = rows_sum[..., w:] - rows_sum[..., :-w]                      # (2, n, nv, nu)
+    ssd = (t * t).sum(axis=(1, 2))[:, None, None] - 2.0 * cross.astype(np.float64) + box[1]
+    if cost != "ssd":
+        diff = t.sum(axis=(1, 2))[:, None, None] - box[0]
+        ssd = (h * w) * ssd - diff * diff
+    return ssd.astype(np.int64)
+
+
+def _second_ratios(costs: np.ndarray, iy: np.ndarray, ix: np.ndarray) -> list[float]:
+    """`refpoint._second_ratio_2d` of each (n, s, s) cost square around its (iy, ix)."""
+    n, s = costs.shape[0], costs.shape[1]
+    padded = np.pad(costs, ((0, 0), (1, 1), (1, 1)), constant_values=_NO_COST)
+    c = padded[:, 1:-1, 1:-1]
+    is_min = ((c <= padded[:, :-2, 1:-1]) & (c <= padded[:, 2:, 1:-1])
+              & (c <= padded[:, 1:-1, :-2]) & (c <= padded[:, 1:-1, 2:]))
+    k = np.arange(s)
+    near = ((np.abs(k[None, :] - iy[:, None]) <= 1)[:, :, None]
+            & (np.abs(k[None, :] - ix[:, None]) <= 1)[:, None, :])
+    is_min &= ~near
+    return _ratios(c.reshape(n, -1), is_min.reshape(n, -1), costs[np.arange(n), iy, ix].tolist())
+
+
+def _ratios(costs: np.ndarray, is_min: np.ndarray, best: list[int]) -> list[float]:
+    """Per row: the least cost where is_min, over the best (inf without one; the reference's rules)."""
+    second = np.where(is_min, costs, _NO_COST).min(axis=1).tolist()
+    out = []
+    for any_min, sec, b in zip(is_min.any(axis=1).tolist(), second, best, strict=True):
+        if not any_min:
+            out.append(math.inf)
+        elif b <= 0:
+            out.append(math.inf if sec > 0 else 1.0)
+        else:
+            out.append(float(sec) / float(b))
+    return out
+
+
+def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Sequence[float],
+                 ys: Sequence[float], predicted_dxs: Sequence[float], predicted_dys: Sequence[float], *,
+                 window: int = 15, search_radius: int = 4, subpixel: str = "cancel", noise_dn: float = 1.0,
+                 min_ratio: float = 1.1, max_sigma_px: float = 0.3) -> list[PointTrack]:
+    """`track_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=..., predicted_dy=...)` (impl="int")
+    for every i, the integer searches batched; bit-identical results."""
+    kw = dict(window=window, search_radius=search_radius, subpixel=subpixel, noise_dn=noise_dn,
+              min_ratio=min_ratio, max_sigma_px=max_sigma_px)
+    n = len(prevs)
+    out: list[PointTrack | None] = [None] * n
+    h, r = window // 2, search_radius
+    side = window + 2 * r
+    fast: list[tuple[int, FollowSite]] = []
+    regions, searched = [], []
+    for i in range(n):
+        site = follow_site(prevs[i], curs[i], xs[i], ys[i], window, search_radius, predicted_dxs[i],
+                           predicted_dys[i])
+        if isinstance(site, PointTrack):
+            out[i] = site
+            continue
+        xi, yi, x0 = site.xi, site.yi, site.xi + site.pu - r - h
+        fast.append((i, site))
+        regions.append(prevs[i][yi - h - 1:yi + h + 2, xi - h - 1:xi + h + 2])    # window + 1 all round
+        searched.append(curs[i][yi + site.pv - r - h:yi + site.pv - r - h + side, x0:x0 + side])
+    if fast:
+        region = np.stack(regions).astype(np.int32)
+        gx = region[:, 1:-1, 2:] - region[:, 1:-1, :-2]          # = gradient_energy of the window rows
+        gy = region[:, 2:, 1:-1] - region[:, :-2, 1:-1]          # ... and of its columns
+        energy_x, energy_y = (gx * gx).sum(axis=(1, 2)).tolist(), (gy * gy).sum(axis=(1, 2)).tolist()
+        keep, sigmas = [], []
+        for k, (i, _) in enumerate(fast):
+            sx, sy = texture_sigmas(energy_x[k], energy_y[k], noise_dn)
+            if sx <= max_sigma_px and sy <= max_sigma_px:
+                keep.append(k)
+                sigmas.append((sx, sy))
+            else:                                       # the reference says why (rare: flat windows)
+                out[i] = track_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=predicted_dxs[i],
+                                     predicted_dy=predicted_dys[i], **kw)
+        if keep:
+            costs = batch_costs(region[keep, 1:-1, 1:-1], np.stack([searched[k] for k in keep]), "zssd")
+            flat_best = costs.reshape(len(keep), -1).argmin(axis=1)
+            iy, ix = np.divmod(flat_best, 2 * r + 1)
+            ratios = _second_ratios(costs, iy, ix)
+            arith = CostArithmetic("int", "zssd")
+            for j, (k, v, u) in enumerate(zip(keep, iy.tolist(), ix.tolist(), strict=True)):
+                i, site = fast[k]
+                out[i] = finish_follow(prevs[i], curs[i], site, costs[j], sigmas[j], arith, window=window,
+                                       search_radius=search_radius, subpixel=subpixel, min_ratio=min_ratio,
+                                       best=(v, u), ratio=ratios[j], curves_from_costs=True)
+    return out  # type: ignore[return-value]
+
+
+def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: Sequence[float],
+                 ys: Sequence[float], max_disparities: Sequence[int],
+                 predicted_disparities: Sequence[float | None], *, window: int = 15,
+                 search_radius: int | None = None, cost: str = "zssd", subpixel: str | None = None,
+                 noise_dn: float = 1.0, min_ratio: float = 1.1, max_sigma_px: float = 0.3) -> list[Match]:
+    """`match_point(lefts[i], rights[i], xs[i], ys[i], max_disparity=..., predicted_disparity=...)`
+    (impl="int", min_disparity=0) for every i, the cost curves batched; bit-identical results.
+    `search_radius` applies to the points that have a prediction (None: match_point's default);
+    subpixel None is match_point's default method."""
+    n = len(lefts)
+    subpixel = _MATCH_SUBPIXEL if subpixel is None else subpixel
+
+    def reference(i: int) -> Match:
+        pred = predicted_disparities[i]
+        return match_point(lefts[i], rights[i], xs[i], ys[i], window=window, max_disparity=max_disparities[i],
+                           predicted_disparity=pred, search_radius=None if pred is None else search_radius,
+                           cost=cost, subpixel=subpixel, noise_dn=noise_dn, min_ratio=min_ratio,
+                           max_sigma_px=max_sigma_px)
+
+    if cost not in COSTS or subpixel not in SUBPIXEL_METHODS or window < 3 or window % 2 == 0:
+        return [reference(i) for i in range(n)]        # raises ValueError as match_point does
+    out: list[Match | None] = [None] * n
+    h = window // 2
+    sites, gathered = [], []
+    for i in range(n):
+        site = _match_site(lefts[i], rights[i], xs[i], ys[i], predicted_disparities[i], h)
+        if site is None:
+            out[i] = reference(i)
+            continue
+        xf, yf, xi, yi = site
+        sites.append((i, xf, yf, xi, yi))
+        gathered.append(lefts[i][yi - h:yi + h + 1, xi - h - 1:xi + h + 2])
+    if not sites:
+        return out  # type: ignore[return-value]
+    rows = np.stack(gathered).astype(np.int32)
+    g = rows[:, :, 2:] - rows[:, :, :-2]
+    energies = (g * g).sum(axis=(1, 2)).tolist()
+    searches = []
+    for (i, xf, yf, xi, yi), g2 in zip(sites, energies, strict=True):
+        sigma = noise_dn * math.sqrt(8.0 / g2) if g2 > 0 else math.inf     # sqrt(2 / sum Ix^2)
+        if not sigma <= max_sigma_px:
+            out[i] = reference(i)
+            continue
+        pred = predicted_disparities[i]
+        lo, hi = search_range(xi, lefts[i].shape[1], window, 0, int(max_disparities[i]),
+                              None if pred is None else float(pred), None if pred is None else search_radius)
+        if hi - lo < 2:
+            out[i] = reference(i)
+            continue
+        searches.append((i, xf, yf, xi, yi, lo, hi, sigma, g2 / 4.0))
+    arith = CostArithmetic("int", cost)
+    for n, items in _share_curves(searches, [r.shape[1] for r in rights], h).items():
+        templates = np.stack([lefts[it[0]][it[4] - h:it[4] + h + 1, it[3] - h:it[3] + h + 1] for it in items])
+        bands = np.stack([rights[i][yi - h:yi + h + 1, xi - h - start - n + 1:xi + h + 1 - start]
+                          for i, _, _, xi, yi, *_, start in items])
+        curves = batch_costs(templates, bands, cost)[:, 0, ::-1]       # ascending disparity from lo'
+        first = np.array([it[5] - it[9] for it in items])
+        last = np.array([it[6] - it[9] for it in items])
+        k0s, ratios = _curve_minima(curves, first, last)
+        for it, curve, a, k0, ratio in zip(items, curves, first.tolist(), k0s, ratios, strict=True):
+            i, xf, yf, xi, yi, lo, hi, sigma, texture, _ = it
+            out[i] = finish_match(lefts[i], rights[i], xf, yf, xi, yi, lo, curve[a:a + hi - lo + 1], sigma,
+                                  texture, arith, window=window, subpixel=subpixel, min_ratio=min_ratio,
+                                  k0=k0, ratio=ratio)
+    return out  # type: ignore[return-value]
+
+
+def _share_curves(searches: list[tuple], widths: list[int], h: int) -> dict[int, list[tuple]]:
+    """Group the searches (i, ..., lo, hi, ...) by the length n of one batched curve each can use:
+    a short range [lo, hi] is widened to n candidates [lo', lo' + n - 1] when its right image holds
+    them and n is at most twice its own (the extra candidates are computed, then ignored), so the
+    usual few range lengths need one product. Items gain lo' at index 9."""
+    groups: dict[int, list[tuple]] = defaultdict(list)
+    for it in sorted(searches, key=lambda it: it[6] - it[5], reverse=True):
+        i, xi, lo, hi = it[0], it[3], it[5], it[6]
+        d_min, d_max = xi + h + 1 - widths[i], xi - h           # candidates inside the right image
+        for n in groups:
+            start = max(d_min, hi - n + 1)
+            if n <= 2 * (hi - lo + 1) and start <= lo and start + n - 1 <= d_max:
+                groups[n].append(it + (start,))
+                break
+        else:
+            groups[hi - lo + 1].append(it + (lo,))
+    return groups
+
+
+def _curve_minima(curves: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[list[int], list[float]]:
+    """First minimum (relative to `first`) and `match.second_best_ratio` of each curve's part
+    [first, last] (its ends count as minima)."""
+    k = np.arange(curves.shape[1])[None, :]
+    inside = (k >= first[:, None]) & (k <= last[:, None])
+    k0 = np.where(inside, curves, _NO_COST).argmin(axis=1)
+    not_above_right = np.ones(curves.shape, dtype=bool)
+    np.less_equal(curves[:, :-1], curves[:, 1:], out=not_above_right[:, :-1])
+    not_above_left = np.ones(curves.shape, dtype=bool)
+    np.less_equal(curves[:, 1:], curves[:, :-1], out=not_above_left[:, 1:])
+    is_min = (inside & (not_above_right | (k == last[:, None])) & (not_above_left | (k == first[:, None]))
+              & (np.abs(k - k0[:, None]) > 1))
+    ratios = _ratios(curves, is_min, curves[np.arange(len(k0)), k0].tolist())
+    return (k0 - first).tolist(), ratios
+
+
+def _match_site(left: object, right: object, x: object, y: object, pred: object,
+                h: int) -> tuple[float, float, int, int] | None:
+    """(x, y, round(x), round(y)) of a point the fast path of `match_points` takes, else None."""
+    if check_images(left, right):
+        return None
+    try:
+        xf, yf = float(x), float(y)                   # type: ignore[arg-type]
+        if pred is not None and not math.isfinite(float(pred)):   # type: ignore[arg-type]
+            return None
+    except (TypeError, ValueError):
+        return None
+    if not (math.isfinite(xf) and math.isfinite(yf)):
+        return None
+    height, width = left.shape                         # type: ignore[union-attr]
+    xi, yi = round_half_away(xf), round_half_away(yf)
+    if yi - h < 0 or yi + h >= height or xi - h - 1 < 0 or xi + h + 1 >= width:
+        return None
+    return xf, yf, xi, yi
+
+
+def finish_match(left: np.ndarray, right: np.ndarray, xf: float, yf: float, xi: int, yi: int, lo: int,
+                 costs: np.ndarray, sigma: float, texture: float, arith: CostArithmetic, *, window: int,
+                 subpixel: str, min_ratio: float, k0: int | None = None, ratio: float | None = None) -> Match:
+    """`match_point` (integer impl) after its integer search, written out as match.py does it:
+    gates, half-pixel border check and `match.refine`. `costs` in ascending disparity from lo;
+    k0 (its first minimum) and ratio (`second_best_ratio`) when the caller has them.
+    (match.py keeps this part inline; keep the two in step: the equality test compares them.)"""
+    width = left.shape[1]
+    h = window // 2
+    k0 = int(np.argmin(costs)) if k0 is None else k0
+    d0 = lo + k0
+    best = float(costs[k0])
+    ratio = second_best_ratio(costs, k0) if ratio is None else ratio
+
+    def invalid(reason: str) -> Match:
+        return Match(False, math.nan, best, sigma, reason, disparity_int=d0, second_ratio=ratio,
+                     texture=texture, x_px=xf, y_px=yf)
+
+    if not 0 < k0 < len(costs) - 1:
+        return invalid("minimum at the edge of the search range")
+    if ratio < min_ratio:
+        return invalid(f"ambiguous: second-best cost only {ratio:.3f}x the best")
+    if subpixel.startswith("cancel") and (xi - h - 2 < 0 or xi + h + 3 >= width
+                                          or d0 + 2 > xi - h or d0 - 2 < xi + h + 4 - width):
+        return invalid("half-pixel passes run off the image (point or match near the border)")
+    a_band, b_band = left[yi - h:yi + h + 1], right[yi - h:yi + h + 1]
+    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel)
+    if value is None:
+        return invalid(reason)
+    return Match(True, from_q(int(value), SUBPIX_BITS), best, sigma, "", int(value), d0, ratio, texture, xf,
+                 yf)
+
+
+__all__ = ["batch_costs", "finish_match", "match_points", "track_points"]

@@ -1,0 +1,47 @@
+"""tools/bench's scene layout: as many ships as asked, each a blob of its own for the detector."""
+
+from __future__ import annotations
+
+import importlib.machinery
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+from edge.calibration import calibration_from_dict
+from edge.sim.ships import ShipModel
+
+BENCH = Path(__file__).resolve().parents[2] / "tools" / "bench"
+
+
+def _bench():
+    loader = importlib.machinery.SourceFileLoader("bench_tool", str(BENCH))
+    spec = importlib.util.spec_from_loader("bench_tool", loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("size", [720, 2048])
+def test_layout_rows_are_clear_and_ships_apart(size: int) -> None:
+    bench = _bench()
+    ships = bench.layout(size, 32)
+    assert len(ships) == 32
+    cal = calibration_from_dict(bench._calibration(size), "bench")
+    f, h = cal.rig.focal_px(), cal.site.height_m
+    length_px, _, gap_px = bench.LAYOUT[size]
+    rows: dict[float, list[float]] = {}
+    for s in ships:
+        (x, z), _ = s["track"]["waypoints_m"]
+        assert s["length_m"] * f / z == pytest.approx(length_px, rel=0.01)   # the same size in the image
+        assert length_px >= 20                                               # above the detector's minimum
+        rows.setdefault(z, []).append(x * f / z)
+    spans = []  # (top, bottom) rows below the horizon of each row of ships (flat-sea estimate)
+    for z in sorted(rows):
+        top_m = float(ShipModel.build(bench.SHIP_KIND, 20.0).extent_local[1, 2]) / 20.0 * length_px * z / f
+        spans.append(((h - top_m) * f / z, h * f / z))
+        cols = sorted(rows[z])
+        assert min(b - a for a, b in zip(cols, cols[1:], strict=False)) >= bench.SPACING * length_px - 1e-6
+        assert max(abs(c) for c in cols) + length_px / 2 <= cal.rig.width / 2
+    for (top, _), (_, bottom) in zip(spans, spans[1:], strict=False):
+        assert top - bottom >= gap_px                                        # rows clear of each other

@@ -1,0 +1,189 @@
+"""Study section of tools/bench-core (`--sections study`): float64 sketches of sub-pixel
+estimators that were considered for closing the gap to the Cramer-Rao bound, measured on the
+*tuning* seeds (5000+) so that choosing among them never looks at the evaluation seeds
+(`--study-seeds evaluation` reruns it on 1000+ as a check of a choice already made).
+
+Not product code: none of these is in edge/core. They answer "would it help?" before anyone
+writes an integer version:
+
+- Gauss-Newton (Lucas-Kanade) steps on the raw windows, symmetric split (left sampled at
+  x + f/2, right at x - d0 - f/2), gradient of the mean of both, offset removed, contrast
+  equalised; the samples at fractional positions come from linear, Keys cubic or Lanczos-3
+  interpolation, started from the cancellation estimate or from the plain parabola;
+- six-pass cancellation (`subpixel="cancel6"`) with other 3-point models of the curve than the
+  parabola: a cosine through the cross-correlation (exact for a single sinusoid) and a
+  Gaussian through the normalised cross-correlation (exact for a Gaussian autocorrelation;
+  the sketch that led to match_point's default "cancel6-gauss", which differs only in
+  choosing the centre sample on the model curve and in its integer arithmetic).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from edge.core.match import Match, match_point
+from edge.core.synth import Condition, sweep_many
+
+TUNE_SEED0 = 5000
+EVAL_SEED0 = 1000                        # bench-core's evaluation seeds (only with --study-seeds)
+H = 7                                    # 15x15 window
+
+
+def _keys(a: float) -> tuple[np.ndarray, np.ndarray]:
+    def k(t: float) -> float:
+        t = abs(t)
+        if t <= 1:
+            return 1.5 * t**3 - 2.5 * t**2 + 1
+        return -0.5 * t**3 + 2.5 * t**2 - 4 * t + 2 if t < 2 else 0.0
+    return np.array([k(a + 1), k(a), k(1 - a), k(2 - a)]), np.arange(-1, 3)
+
+
+def _linear(a: float) -> tuple[np.ndarray, np.ndarray]:
+    return np.array([1 - a, a]), np.arange(2)
+
+
+def _lanczos3(a: float) -> tuple[np.ndarray, np.ndarray]:
+    taps = np.arange(-2, 4)
+    w = np.sinc(taps - a) * np.sinc((taps - a) / 3)
+    return w / w.sum(), taps
+
+
+def _sample(rows: np.ndarray, cols: np.ndarray, shift: float, kernel) -> np.ndarray:
+    base = math.floor(shift)
+    weights, taps = kernel(shift - base)
+    return sum(wt * rows[:, cols + base + t] for wt, t in zip(weights, taps, strict=True))
+
+
+def gauss_newton_step(left: np.ndarray, right: np.ndarray, x: int, y: int, d: float, kernel) -> float:
+    d0 = math.floor(d + 0.5)
+    f = d - d0
+    rows = slice(y - H, y + H + 1)
+    cols = np.arange(x - H - 1, x + H + 2)
+    ls = _sample(left[rows].astype(float), cols, f / 2, kernel)
+    rs = _sample(right[rows].astype(float), cols - d0, -f / 2, kernel)
+    lc, rc = ls[:, 1:-1] - ls[:, 1:-1].mean(), rs[:, 1:-1] - rs[:, 1:-1].mean()
+    rs = rs * math.sqrt((lc * lc).sum() / max((rc * rc).sum(), 1e-12))
+    mean = (ls + rs) / 2
+    g = (mean[:, 2:] - mean[:, :-2]) / 2
+    r = (ls - rs)[:, 1:-1]
+    g, r = g - g.mean(), r - r.mean()
+    return d - float((r * g).sum() / (g * g).sum())      # r ~ (f - f_true) * g
+
+
+def _gn(start: str, steps: int, kernel):
+    def run(left, right, x, y):
+        m = match_point(left, right, x, y, max_disparity=12, subpixel=start, impl="float")
+        if not m.valid:
+            return m
+        d = m.disparity_px
+        for _ in range(steps):
+            d = gauss_newton_step(left, right, x, y, d, kernel)
+        return Match(True, d, m.cost, m.sigma_px)
+    return run
+
+
+def _windows(a: np.ndarray, cols: list[int]) -> np.ndarray:
+    return np.stack([a[:, c - H:c + H + 1] for c in cols])
+
+
+def _pass(template: np.ndarray, cands: np.ndarray) -> tuple[np.ndarray, ...]:
+    t = template - template.mean()
+    c = cands - cands.mean(axis=(1, 2), keepdims=True)
+    ssd = ((t - c) ** 2).sum(axis=(1, 2))
+    return (t * c).sum(axis=(1, 2)), float((t * t).sum()), (c * c).sum(axis=(1, 2)), ssd
+
+
+def six_passes(left, right, x, y, d0):
+    """(cross, E_template, E_candidates, ZSSD) of the six passes at five candidates each, with the
+    disparity of the centre candidate (candidate k is centre + k - 2)."""
+    rows = slice(y - H, y + H + 1)
+    lf, rf = left[rows].astype(float), right[rows].astype(float)
+    lh, rh = lf[:, :-1] + lf[:, 1:], rf[:, :-1] + rf[:, 1:]
+    xr = x - d0
+    lr = [x - d0 + 2 - k for k in range(5)]
+    rl = [xr + d0 - 2 + k for k in range(5)]
+    win = lambda a, c: a[:, c - H:c + H + 1]            # noqa: E731
+    return [(_pass(win(lh, x), _windows(rh, lr)), d0),
+            (_pass(win(lh, x), _windows(2 * rf, lr)), d0 + 0.5),
+            (_pass(win(rh, xr), _windows(lh, rl)), d0),
+            (_pass(win(rh, xr), _windows(2 * lf, rl)), d0 - 0.5),
+            (_pass(win(2 * lf, x), _windows(rh, lr)), d0 - 0.5),
+            (_pass(win(2 * rf, xr), _windows(lh, rl)), d0 + 0.5)]
+
+
+def _fit3(model: str, cross, e_t, e_c, ssd) -> float:
+    if model == "parabola":
+        cm, c0, cp = ssd
+        return (cm - cp) / (2 * (cm - 2 * c0 + cp))
+    if model == "gauss":
+        rho = cross / np.sqrt(e_t * e_c)
+        if (rho <= 0).any():
+            return math.nan
+        cm, c0, cp = -np.log(rho)
+        return (cm - cp) / (2 * (cm - 2 * c0 + cp))
+    rm, r0, rp = (np.mean(e_t + e_c) - ssd) / 2               # cosine through the correlation
+    om = math.acos(min(max((rm + rp) / (2 * r0), -1.0), 1.0))
+    if om < 1e-6:
+        return (rp - rm) / (2 * (2 * r0 - rm - rp))
+    return math.atan2(rp - rm, 2 * r0 * math.sin(om)) / om
+
+
+def _six(model: str):
+    def run(left, right, x, y):
+        m = match_point(left, right, x, y, max_disparity=12, subpixel="parabola", impl="float")
+        if not m.valid:
+            return m
+        est = []
+        for (cross, e_t, e_c, ssd), centre in six_passes(left, right, x, y, m.disparity_int):
+            k = int(np.argmin(ssd[1:4])) + 1
+            sl = slice(k - 1, k + 2)
+            est.append(centre + k - 2 + _fit3(model, cross[sl], e_t, e_c[sl], ssd[sl]))
+        d = (est[0] + est[2]) / 4 + (est[1] + est[3] + est[4] + est[5]) / 8
+        return Match(math.isfinite(d), d, m.cost, m.sigma_px)
+    return run
+
+
+METHODS = {
+    "ZSSD+cancel (previous default, float)": lambda lft, rgt, x, y: match_point(
+        lft, rgt, x, y, max_disparity=12, subpixel="cancel", impl="float"),
+    "cancel6, parabola (float)": _six("parabola"),
+    "cancel6, cosine fit": _six("cosine"),
+    "cancel6, Gaussian fit (NCC; ~ the default)": _six("gauss"),
+    "cancel + 1 GN step, linear": _gn("cancel", 1, _linear),
+    "cancel + 1 GN step, Keys cubic": _gn("cancel", 1, _keys),
+    "cancel + 1 GN step, Lanczos-3": _gn("cancel", 1, _lanczos3),
+    "parabola + 2 GN steps, Lanczos-3": _gn("parabola", 2, _lanczos3),
+}
+CONDITIONS = [Condition("textured, 1 DN"), Condition("textured, 0 DN (bias)", noise_dn=0.0),
+              Condition("textured, 4 DN", noise_dn=4.0),
+              Condition("sharp (aliased), 1 DN", kind="sharp", psf_sigma_px=0.25),
+              Condition("fog t=0.15, 1 DN", fog_t=0.15)]
+
+
+def section_study(args: argparse.Namespace, out: list[str]) -> None:
+    from _bench_common import table
+    n_seeds, n_frac = (6, 8) if args.quick else (12, 16)
+    seed0 = TUNE_SEED0
+    if getattr(args, "study_seeds", "tuning") == "evaluation":       # a check, never for choosing
+        seed0, n_seeds = EVAL_SEED0, 2 * n_seeds
+    seeds = range(seed0, seed0 + n_seeds)
+    rows = []
+    for cond in CONDITIONS:
+        res = sweep_many(cond, seeds, METHODS, n_fractions=n_frac)
+        crb = float(np.sqrt(np.mean(res[next(iter(METHODS))].crb_px ** 2)))
+        for name, sw in res.items():
+            e = sw.errors
+            ok = np.isfinite(e) & (np.abs(np.nan_to_num(e)) <= 1.0)
+            good = np.where(ok, e, np.nan)
+            rms = float(np.sqrt(np.nanmean(good**2)))
+            bias = float(np.nanmax(np.abs(np.nanmean(good, axis=0))))
+            rows.append([cond.name, name, f"{rms:.4f}", f"{bias:.4f}", f"{1 - ok.mean():.3f}", f"{crb:.4f}",
+                         f"{rms / crb:.2f}"])
+    kind = "tuning" if seed0 == TUNE_SEED0 else "EVALUATION"
+    out.append(f"Study (float sketches, {kind} seeds {seeds.start}..{seeds.stop - 1} x {n_frac} fractions; "
+               "not product code): other estimators against the Cramer-Rao bound")
+    headers = ["condition", "method", "RMS", "max|bias|", "gross+invalid", "CRB", "RMS/CRB"]
+    out.append(table(headers, rows) + "\n")
