@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from edge.anchor import reference_points
+from edge.anchor import reference_points, ship_window
 from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
@@ -127,7 +127,8 @@ class TrackTable:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
         # every track's follow and match of this pair batched (edge.pointbatch; = point.step per track)
-        steps = [t.point.steps(left, right, self.rect, skipped, lambda t=t: self._candidates(left, t.box))
+        steps = [t.point.steps(left, right, self.rect, skipped,
+                               lambda t=t: self._candidates(left, t.box, window=t.point.s.window))
                  for t in self.tracks]
         for track, alive in zip(self.tracks, step_points(steps), strict=True):
             du, dv = track.point.jumped
@@ -184,7 +185,7 @@ class TrackTable:
             # a point without a range history that is off the ship, or lost what it followed (a
             # glint gone): start over on the ship, as a searching point with a prediction cannot
             # (one with a history stays: it gets candidates from this box next pair)
-            p.reanchor(*self._reference(left, box))
+            p.reanchor(*self._reference(left, box, p.s.window))
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
         if track.status is TrackStatus.ACQUIRING and not p.searching:
             slope = self._slope(p, left, right)
@@ -197,8 +198,13 @@ class TrackTable:
         return True
 
     def _birth(self, left: np.ndarray, right: np.ndarray, t_ns: int, box: np.ndarray) -> None:
-        u, v = self._reference(left, box)
-        point = TrackPoint(u, v, self.ps, self.designs)
+        m = self.ps.window
+        bx0, by0 = int(math.floor(box[0])) - m, int(math.floor(box[1])) - m
+        bx1, by1 = int(math.ceil(box[2])) + m, int(math.ceil(box[3])) + m
+        patch = self.rect.patch(left, 0, bx0, by0, bx1 - bx0, by1 - by0)
+        window = ship_window(patch, (bx0, by0), tuple(box), m)
+        u, v = self._reference(left, box, window)
+        point = TrackPoint(u, v, self.ps, self.designs, window)
         if not point.step(left, right, self.rect):
             return
         m = point.match
@@ -211,11 +217,13 @@ class TrackTable:
         self.next_id += 1
         self.births += 1
 
-    def _reference(self, left: np.ndarray, box: np.ndarray) -> tuple[float, float]:
-        return self._candidates(left, box, 1)[0]
+    def _reference(self, left: np.ndarray, box: np.ndarray, window: int | None = None) -> tuple[float, float]:
+        return self._candidates(left, box, 1, window)[0]
 
-    def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES) -> list:
-        """The best-textured points in the upper part of a (rectified) ship box, best first.
+    def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES,
+                    window: int | None = None) -> list:
+        """The best-textured points in the upper part of a (rectified) ship box, best first, for
+        `window` (default the configured one; a track's own, edge.anchor.ship_window).
 
         Two kinds of window are avoided: (1) one across the bow or stern outline holds the sea
         behind the ship, at another range, and its disparity is a mix of the two (a ship wider
@@ -223,7 +231,8 @@ class TrackTable:
         pixels: a sun glint, the brightest texture there is, seen by one camera only and gone
         within a few pairs (such windows come after all others, so a ship that is all glare
         still gets a point)."""
-        h = self.ps.window // 2
+        window = window or self.ps.window
+        h = window // 2
         x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
         x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
         ox, oy = x0 - h - 1, y0 - h - 1
@@ -231,8 +240,8 @@ class TrackTable:
         cx0, cx1 = (x0 + h, x1 - h) if x1 - x0 > 2 * h + 1 else (x0, x1)
         clipped = patch >= CLIPPED_DN
         if not clipped.any():
-            return reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), self.ps.window, count)
-        points = reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), self.ps.window, count + GLINT_SPARE)
+            return reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count)
+        points = reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count + GLINT_SPARE)
         glare = [bool(clipped[int(v) - oy - h:int(v) - oy + h + 1, int(u) - ox - h:int(u) - ox + h + 1].any())
                  for u, v in points]
         ranked = [p for p, g in zip(points, glare, strict=True) if not g] + \

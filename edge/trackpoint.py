@@ -4,7 +4,8 @@ Everything here works in rectified left-image pixels (`edge.core.rectify`):
 rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 
 - Reference point (`edge.anchor.reference_points`): the best-textured window in
-  the upper part of the ship's box — the superstructure, the thesis's bridge.
+  the upper part of the ship's box — the superstructure, the thesis's bridge; the window spans a
+  small far ship on a quiet background (`edge.anchor.ship_window`, chosen at birth).
 - Left follow: the core's sub-pixel point tracker (`edge.core.track_point`,
   ZSSD 2-D search with cancellation-free parabola fits here for speed) finds a
   template kept for up to a second around the position the point's image motion
@@ -15,7 +16,8 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 - Right match: `edge.core.match_point` on two rectified patches of the same rows and
   columns (prefilter "xsobel": both clipped x-Sobel, edge.core.prefilter), the search narrowed
   to the disparity filter's prediction once it runs (a full search at birth and after a restart).
-- Filter: the core's fixed-point CV Kalman with its 3-sigma gate (default), the thesis's
+- Filter: the core's fixed-point CV Kalman with its 3-sigma gate (default; its white acceleration
+  is what a ship at the track's disparity can do, `edge.ranging`), the thesis's
   Butterworth (eq. 6.1), or none (the raw whole-pixel / sub-pixel stages that tools/evaluate
   compares). The left point's column is smoothed by a least-squares line over the last second
   of follows: its slope is the image motion that predicts the next position and gives the bearing rate.
@@ -26,17 +28,18 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from edge.anchor import line_fit, median
 from edge.core.butterworth import ButterworthQ
-from edge.core.kalman import DisparityKalman, KalmanDesign, design_kalman
+from edge.core.kalman import DisparityKalman
 from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
 from edge.pointbatch import Follow, Steps, follow_request, run_one, stereo_request
+from edge.ranging import Designs, accel_rung
 
 SUBPIXELS = ("cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
@@ -85,25 +88,6 @@ class PointSettings:
     focal_px: float = 0.0
 
 
-class Designs:
-    """The Kalman tables of one setting, computed once (lazily per noise level) and shared by all tracks.
-
-    The measurement noise of a track is not known in advance: a textured bridge at 1 km
-    matches to a few hundredths of a pixel, a small hull in fog to half a pixel. Each track
-    measures its own scatter and uses the design of the matching rung of NOISE_LADDER_PX
-    (factors of 2), so the gate and the reported sigma fit the data actually seen."""
-
-    def __init__(self, s: PointSettings) -> None:
-        self.s, self._tables = s, {}
-
-    def disparity(self, sigma_px: float) -> KalmanDesign:
-        s = self.s
-        if sigma_px not in self._tables:
-            self._tables[sigma_px] = design_kalman(s.fps, sigma_px, s.sigma_accel_pxps2,
-                                                   gate_sigma=s.gate_sigma, reacquire_s=s.reacquire_s)
-        return self._tables[sigma_px]
-
-
 class TrackPoint:
     """The measured point of one track: position in the rectified left image, disparity, filters.
 
@@ -114,8 +98,10 @@ class TrackPoint:
     offers other points on the ship, and one whose disparity fits the prediction resumes
     following. The filters are kept: the track cannot adopt another ship's range."""
 
-    def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs) -> None:
-        self.s = settings
+    def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs,
+                 window: int | None = None) -> None:
+        # a track's own window (edge.anchor.ship_window) rides in its copy of the settings
+        self.s = settings if window in (None, settings.window) else replace(settings, window=window)
         self.designs = designs
         self.u, self.v = u, v
         self.template: np.ndarray | None = None  # window around template_at in the last image
@@ -145,6 +131,7 @@ class TrackPoint:
 
     def _reset_filters(self) -> None:
         s = self.s
+        self.accel_pxps2 = s.sigma_accel_pxps2  # the Kalman's white acceleration, see _adapt_accel
         self.kalman = DisparityKalman(self.designs.disparity(self.noise_px)) if s.filter == "kalman" else None
         self.butter = ButterworthQ(s.butterworth_cutoff_hz, s.fps) if s.filter == "butterworth" else None
         self.disparity: float | None = None  # filtered
@@ -402,7 +389,17 @@ class TrackPoint:
                 (level < self.noise_px and scatter < 0.4 * self.noise_px):
             # same state, the gains, gate and variances of the new level from the next update on
             self.noise_px = level
-            self.kalman.design = self.designs.disparity(level)
+            self.kalman.design = self.designs.disparity(level, self.accel_pxps2)
+        self._adapt_accel()
+
+    def _adapt_accel(self) -> None:
+        """The white acceleration of the design: what a ship at this disparity can do (edge.ranging)."""
+        if self.disparity is None or self.kalman is None:
+            return
+        rung = accel_rung(self.disparity, self.s.focal_px * self.s.baseline_m, self.s.sigma_accel_pxps2)
+        if rung != self.accel_pxps2:
+            self.accel_pxps2 = rung
+            self.kalman.design = self.designs.disparity(self.noise_px, rung)
 
     def _filter(self, z: float | None) -> None:
         self.raw_disparity = z

@@ -1,4 +1,4 @@
-"""reference_points(): texture in the upper part of the box, spread out; median() equals numpy's."""
+"""reference_points(): texture in the upper part, spread out; median() equals numpy's; ship_window()."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from helpers import band_texture, shifted_u8
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.anchor import line_fit, median, reference_points
+from edge.anchor import SHIP_WINDOW_MARGIN_PX, line_fit, median, reference_points, ship_window
 
 
 def test_reference_points_pick_texture_in_the_upper_part_and_spread_out() -> None:
@@ -38,3 +38,35 @@ def test_line_fit_equals_polyfit(points: list[tuple[int, float]]) -> None:
     slope, intercept = np.polyfit(t, [p[1] for p in points], 1)
     got = line_fit(points)
     assert got[0] == pytest.approx(intercept, abs=1e-6) and got[1] == pytest.approx(slope, abs=1e-6)
+
+
+def _scene(box_w: int, sea_dn: float, seed: int) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """A dark ship (vertical texture) on a background of `sea_dn` RMS noise; window margin 15."""
+    rng = np.random.default_rng(seed)
+    image = 150.0 + sea_dn * rng.standard_normal((100, 120))
+    box = (40, 40, 40 + box_w, 52)
+    image[40:52, 40:40 + box_w] = 80.0 + 20.0 * (np.arange(box_w) % 3 == 0)
+    return np.clip(image, 0, 255).astype(np.uint8), box
+
+
+@pytest.mark.parametrize("box_w", [8, 12, 16, 22, 28])
+def test_ship_window_spans_a_small_ship_on_a_quiet_background(box_w: int) -> None:
+    image, box = _scene(box_w, 0.5, box_w)
+    w = ship_window(image, (0, 0), box, 15)
+    assert w % 2 == 1 and 15 <= w <= 29
+    if box_w + SHIP_WINDOW_MARGIN_PX > 15:
+        assert w >= min(box_w + SHIP_WINDOW_MARGIN_PX, 29)  # both outlines and a margin inside
+    else:
+        assert w == 15
+
+
+@pytest.mark.parametrize("box_w", [12, 22])
+def test_ship_window_keeps_the_window_on_a_textured_sea(box_w: int) -> None:
+    image, box = _scene(box_w, 25.0, box_w)
+    assert ship_window(image, (0, 0), box, 15) == 15
+
+
+def test_ship_window_keeps_the_window_for_a_big_ship() -> None:
+    image = np.full((120, 160), 150, np.uint8)
+    image[40:52, 20:130] = 80
+    assert ship_window(image, (0, 0), (20, 40, 130, 52), 15) == 15
