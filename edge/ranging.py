@@ -59,7 +59,7 @@ class Designs:
     The measurement noise of a track is not known in advance: a textured bridge at 1 km
     matches to a few hundredths of a pixel, a small hull in fog to half a pixel. Each track
     measures its own scatter and uses the design of the matching rung of NOISE_LADDER_PX
-    (edge.trackpoint, factors of 2), so the gate and the reported sigma fit the data actually seen;
+    (edge.pointfilter, factors of 2), so the gate and the reported sigma fit the data actually seen;
     and the acceleration rung of its disparity (`accel_rung`)."""
 
     def __init__(self, s: PointSettings) -> None:

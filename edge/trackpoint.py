@@ -18,11 +18,9 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
   to the disparity filter's prediction once it runs (a full search at birth and after a restart);
   sub-pixel by the six-pass Gaussian cancellation (tools/evaluate against "cancel": two-ships-crossing
   fixes beyond 3 sigma 22 -> 0, approach-2048 4-5 km IMO 62 -> 70 %, akashi envelope unchanged).
-- Filter: the core's fixed-point CV Kalman with its 3-sigma gate (default; its white acceleration
-  is what a ship at the track's disparity can do, `edge.ranging`), the thesis's
-  Butterworth (eq. 6.1), or none (the raw whole-pixel / sub-pixel stages that tools/evaluate
-  compares). The left point's column is smoothed by a least-squares line over the last second
-  of follows: its slope is the image motion that predicts the next position and gives the bearing rate.
+- Filter: `edge.pointfilter.PointFilter` (the base of `TrackPoint`). The left point's column is
+  smoothed by a least-squares line over the last second of follows: its slope is the image motion
+  that predicts the next position and gives the bearing rate.
 """
 
 from __future__ import annotations
@@ -35,29 +33,22 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from edge.anchor import line_fit, median
-from edge.core.butterworth import ButterworthQ
-from edge.core.kalman import DisparityKalman
 from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
 from edge.pointbatch import Follow, Steps, follow_request, run_one, stereo_request
-from edge.ranging import Designs, accel_rung
+from edge.pointfilter import MAX_SHIP_SPEED_MPS, NOISE_WINDOW, PointFilter
+from edge.ranging import Designs
 
 SUBPIXELS = ("cancel6-gauss", "cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
 COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
-NOISE_LADDER_PX = (0.04, 0.08, 0.16, 0.32)  # disparity-noise levels of the Kalman designs
-MAX_USABLE_NOISE_PX = 0.4  # a point scattering more than this gives no usable range (stays Q / turns L)
-MIN_SCATTER_SAMPLES = 6  # raw disparities before the scatter counts
-NOISE_WINDOW = 20  # recent raw disparities kept for the track's own noise estimate
 REJECTS_TO_SEARCH = 5  # valid matches in a row that the filter's gate refuses: the point is on something else
 OCCLUSION_COST_FACTOR = 4.0  # a follow this much worse than the track's typical one: something in front
 OCCLUSION_COST_FLOOR = 20.0  # DN^2 per pixel, so a near-perfect typical match does not trip on noise
 MIXED_COST_FACTOR = 3.0  # a right match this much worse than the track's typical one is mixed
 MIXED_COST_FLOOR_DN2 = 10.0  # plus this residual variance (DN^2), so noise alone never trips it
 TEMPLATE_REFRESH_S = 1.0  # the followed template is re-taken this often (or when it matches 2x worse)
-MAX_SHIP_SPEED_MPS = 25.0  # ~50 kn: no ship's range changes faster
-MEMORY_S = 10.0  # a restarting filter must agree with the last estimate carried this far forward
 FOLLOW_MARGIN_PX = 5  # the core point tracker's margin beyond window and search (half-pixel passes)
 FOLLOW_MAX_SIGMA_PX = 1.0  # texture the follow needs in x and y (looser than for ranging)
 FOLLOW_FAILURES_TO_SEARCH = 5  # pairs without a sure follow before the point is searched for
@@ -90,7 +81,7 @@ class PointSettings:
     focal_px: float = 0.0
 
 
-class TrackPoint:
+class TrackPoint(PointFilter):
     """The measured point of one track: position in the rectified left image, disparity, filters.
 
     States: *following* (the template is followed from pair to pair and matched in the right
@@ -103,43 +94,25 @@ class TrackPoint:
     def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs,
                  window: int | None = None) -> None:
         # a track's own window (edge.anchor.ship_window) rides in its copy of the settings
-        self.s = settings if window in (None, settings.window) else replace(settings, window=window)
-        self.designs = designs
+        super().__init__(settings if window in (None, settings.window) else replace(settings, window=window),
+                         designs)
         self.u, self.v = u, v
         self.template: np.ndarray | None = None  # window around template_at in the last image
         self.template_at = (0, 0, 0.0, 0.0)  # its patch origin, and the point (u, v) then
         self.template_reach = 0.0  # px the point may move before the patch is too small
         self.template_age = 0  # pairs since it was taken
         self.last_left: np.ndarray | None = None
-        self.match: Match | None = None  # this pair's right match (None: not attempted)
-        self.raw_disparity: float | None = None
-        self.accepted = False  # this pair's measurement went into the filter
         self.searching = False
         self.search_frames = 0
         self.follow_failures = 0  # pairs in a row the core tracker found no sure match
         self.jumped = (0.0, 0.0)  # (du, dv) of a move to another point of the ship in this pair
         self.followed = False  # the point tracker measured the point in this pair
         self.rejects = 0
-        self.frame = 0  # pairs seen (and skipped): the time axis of the column fit
         self.u_filtered: float | None = None
         self.u_rate_pxps = 0.0
-        self.noise_px = settings.sigma_meas_px  # the Kalman design level in use
-        self.memory: tuple[int, float, float, float] | None = None  # last accepted (frame, d, d', sigma)
-        self.recent: deque[float] = deque(maxlen=NOISE_WINDOW)
         self.follow_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # SSD per pixel of good follows
         self.match_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # matcher costs of clean matches
         self.columns: deque[tuple[int, float]] = deque(maxlen=max(3, int(round(COLUMN_FIT_S * settings.fps))))
-        self._reset_filters()
-
-    def _reset_filters(self) -> None:
-        s = self.s
-        self.accel_pxps2 = s.sigma_accel_pxps2  # the Kalman's white acceleration, see _adapt_accel
-        self.kalman = DisparityKalman(self.designs.disparity(self.noise_px)) if s.filter == "kalman" else None
-        self.butter = ButterworthQ(s.butterworth_cutoff_hz, s.fps) if s.filter == "butterworth" else None
-        self.disparity: float | None = None  # filtered
-        self.rate_pxps = 0.0  # filtered d'
-        self.sigma_px = math.inf
-        self.updates = 0  # accepted disparity measurements since the filter (re)started
 
     def reanchor(self, u: float, v: float) -> None:
         """Start over at a new point on the same ship: new template, the filters restart."""
@@ -226,45 +199,6 @@ class TrackPoint:
         self._filter(m.disparity_px if m.valid else None)
         self._fit_column()
         return True
-
-    def predicted_disparity(self) -> float | None:
-        prediction = self.prediction()
-        return None if prediction is None else prediction[0]
-
-    def prediction(self) -> tuple[float, float] | None:
-        """(disparity, 1-sigma) expected in this pair: the filter's prediction, or while the filter
-        restarts the last accepted estimate carried forward; None when there is neither."""
-        if self.s.filter == "none":
-            return None
-        if self.disparity is not None:
-            return self.disparity + self.rate_pxps / self.s.fps, self.sigma_px
-        return self._memory_now()
-
-    def _memory_now(self) -> tuple[float, float] | None:
-        """(disparity, 1-sigma) of the last accepted estimate carried forward to this pair, with the
-        uncertainty grown by what the fastest ship could have done since; None once too old."""
-        if self.memory is None:
-            return None
-        frame, d, rate, sigma = self.memory
-        dt_s = (self.frame - frame) / self.s.fps
-        if dt_s > MEMORY_S:
-            return None
-        return d + rate * dt_s, math.hypot(sigma, self._max_rate(d) * dt_s)
-
-    def _fits_memory(self, z: float) -> bool:
-        memory = self._memory_now()
-        if memory is None:
-            return True
-        return abs(z - memory[0]) <= self.s.gate_sigma * math.hypot(memory[1], self.noise_px)
-
-    def _max_rate(self, d: float) -> float:
-        """|d'| of a ship at MAX_SHIP_SPEED_MPS straight at the rig: d^2 v / (f B), px/s."""
-        fb = self.s.focal_px * self.s.baseline_m
-        return d * d * MAX_SHIP_SPEED_MPS / fb if fb > 0 else math.inf
-
-    def _plausible_rate(self, d: float, rate: float) -> float:
-        limit = self._max_rate(max(d, 0.0))
-        return min(max(rate, -limit), limit)
 
     # ------------------------------------------------------------ internals
     def _in_image(self, rect: Rectifier, ui: int | None = None, vi: int | None = None) -> bool:
@@ -364,80 +298,3 @@ class TrackPoint:
                  pred: float | None) -> Match:
         """The right match of left point (u, v), narrowed to `pred` when given (per point)."""
         return stereo_request(self.s, left, right, rect, u, v, pred).run()
-
-    def scatter_px(self) -> float | None:
-        """Robust noise of the recent raw disparities: MAD of successive differences / sqrt(2)
-        (differences remove the slow trend of an approaching ship)."""
-        if len(self.recent) < MIN_SCATTER_SAMPLES:
-            return None
-        r = list(self.recent)
-        diff = [b - a for a, b in zip(r, r[1:], strict=False)]
-        centre = median(diff)
-        return 1.4826 * median([abs(x - centre) for x in diff]) / math.sqrt(2.0)
-
-    @property
-    def usable(self) -> bool:
-        """Is the raw disparity known to be steady enough to range on?"""
-        scatter = self.scatter_px()
-        return scatter is not None and scatter <= MAX_USABLE_NOISE_PX
-
-    def _adapt_noise(self) -> None:
-        """Move the Kalman design one rung up or down the noise ladder when the scatter says so."""
-        scatter = self.scatter_px()
-        if scatter is None or self.kalman is None:
-            return
-        level = next((n for n in NOISE_LADDER_PX if n >= 1.25 * scatter), NOISE_LADDER_PX[-1])
-        if (level > self.noise_px and scatter > 1.2 * self.noise_px) or \
-                (level < self.noise_px and scatter < 0.4 * self.noise_px):
-            # same state, the gains, gate and variances of the new level from the next update on
-            self.noise_px = level
-            self.kalman.design = self.designs.disparity(level, self.accel_pxps2)
-        self._adapt_accel()
-
-    def _adapt_accel(self) -> None:
-        """The white acceleration of the design: what a ship at this disparity can do (edge.ranging)."""
-        if self.disparity is None or self.kalman is None:
-            return
-        rung = accel_rung(self.disparity, self.s.focal_px * self.s.baseline_m, self.s.sigma_accel_pxps2)
-        if rung != self.accel_pxps2:
-            self.accel_pxps2 = rung
-            self.kalman.design = self.designs.disparity(self.noise_px, rung)
-
-    def _filter(self, z: float | None) -> None:
-        self.raw_disparity = z
-        if z is not None:
-            self.recent.append(z)
-            self._adapt_noise()
-        if self.kalman is not None:
-            if z is not None and not self.kalman.running and not self._fits_memory(z):
-                z = None  # a restart must pick up this ship, not whatever the point now sees
-            est = self.kalman.update(z)
-            memory = self._memory_now()
-            if est.valid and est.accepted:
-                rate = self._plausible_rate(est.disparity_px, est.rate_pxps)
-                self.disparity, self.rate_pxps, self.sigma_px = est.disparity_px, rate, est.sigma_px
-                self.updates += 1
-                self.memory = (self.frame, est.disparity_px, rate, est.sigma_px)
-            elif est.valid and memory is not None:
-                # coasting: carry the last accepted estimate at its (physically bounded) rate; the
-                # filter's own state may hold a rate a ramp of mixed windows talked it into
-                self.disparity, self.sigma_px = memory[0], max(est.sigma_px, memory[1])
-            elif est.valid:
-                self.disparity, self.sigma_px = est.disparity_px, est.sigma_px
-            else:
-                self.disparity, self.sigma_px, self.updates = None, math.inf, 0
-            self.accepted = bool(est.valid and est.accepted)
-            return
-        self.accepted = z is not None
-        if z is None:
-            return
-        self.updates += 1
-        m = self.match
-        self.sigma_px = m.sigma_px if m is not None and math.isfinite(m.sigma_px) else 0.5
-        if self.butter is not None:
-            prev = self.disparity
-            self.disparity = self.butter.update_px(z)
-            if prev is not None:
-                self.rate_pxps = (self.disparity - prev) * self.s.fps
-        else:
-            self.disparity = z
