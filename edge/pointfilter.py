@@ -20,7 +20,7 @@ from edge.anchor import median
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalman
 from edge.core.match import Match
-from edge.ranging import Designs, accel_rung
+from edge.ranging import MAX_SHIP_SPEED_MPS, Designs, accel_rung
 
 if TYPE_CHECKING:
     from edge.trackpoint import PointSettings
@@ -30,7 +30,6 @@ NOISE_LADDER_PX = (0.04, 0.08, 0.16, 0.32)  # disparity-noise levels of the Kalm
 MAX_USABLE_NOISE_PX = 0.4  # a point scattering more than this gives no usable range (stays Q / turns L)
 MIN_SCATTER_SAMPLES = 6  # raw disparities before the scatter counts
 NOISE_WINDOW = 20  # recent raw disparities kept for the track's own noise estimate
-MAX_SHIP_SPEED_MPS = 25.0  # ~50 kn: no ship's range changes faster
 MEMORY_S = 10.0  # a restarting filter must agree with the last estimate carried this far forward
 
 
