@@ -12,6 +12,12 @@ give the same fixes bit for bit. A pair it cannot use (wrong size or type,
 an exception deep in a track) is counted and skipped, never raised: the
 daemon must keep running. Gaps in `t_ns` longer than a frame period are
 counted as skipped pairs and the filters coast through them.
+
+Speed and course come from the filtered rates (Z' = -f B d' / d^2, X' from u'); they are left
+unknown (None: empty in TTM, the "unknown" value on Modbus) until the disparity filter has run
+MOTION_AFTER_S and while the range rate's 1-sigma (from the Kalman's P_vv) exceeds
+MAX_SOG_SIGMA_KN: a small far ship's rate is known to tens of knots only, and a ghost speed
+misleads a VTS operator more than an empty field.
 """
 
 from __future__ import annotations
@@ -26,7 +32,7 @@ import numpy as np
 from drivers.camera.base import FramePair
 from edge.calibration import Calibration
 from edge.config import PipelineConfig
-from edge.core.geo import range_bearing, speed_course, world_to_latlon
+from edge.core.geo import KNOT_MPS, range_bearing, speed_course, world_to_latlon
 from edge.core.rectify import Rectifier
 from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
@@ -38,6 +44,7 @@ from edge.trackpoint import FILTERS, SUBPIXELS, PointSettings
 log = logging.getLogger(__name__)
 
 MOTION_AFTER_S = 2.0  # SOG/COG are reported once the disparity filter has run this long
+MAX_SOG_SIGMA_KN = 5.0  # ... and once the range rate it rests on is known to this (1-sigma)
 MAX_DETECT_INTERVAL_S = 0.5  # slow cameras detect more often than every k-th pair (1 fps: every pair)
 MIN_COURSE_KN = 0.5  # below this speed the course is unknown (None)
 
@@ -177,11 +184,17 @@ class Pipeline:
         d_rate = np.array([t.point.rate_pxps for t in live])
         u_rate = np.array([t.point.u_rate_pxps for t in live])
         vz = -f * b * d_rate / d**2
+        # Z' = -f B d' / d^2: its 1-sigma from the filter's rate sigma (a far, noisy track's speed
+        # would otherwise be read as tens of knots; withheld instead, as TTM/Modbus allow)
+        rate_sd = np.array([t.point.rate_sigma_pxps if t.point.rate_sigma_pxps is not None else 0.0
+                            for t in live])
+        vz_sigma_kn = f * b * rate_sd / d**2 / KNOT_MPS
         vx = b * u_rate / d - b * (u - self.rect.cx) * d_rate / d**2
         sog, cog = speed_course(np.stack([vx, np.zeros_like(vx), vz], -1), lat, lon, self.site)
         fixes = []
         for i, t in enumerate(live):
-            moving = self.point_settings.filter != "none" and t.point.updates >= MOTION_AFTER_S * self.fps
+            moving = (self.point_settings.filter != "none" and t.point.updates >= MOTION_AFTER_S * self.fps
+                      and vz_sigma_kn[i] <= MAX_SOG_SIGMA_KN)
             box = t.box
             fixes.append(ShipFix(
                 t_ns=t_ns + self.utc_offset_ns, track_id=t.id, status=t.status,

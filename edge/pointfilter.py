@@ -56,6 +56,7 @@ class PointFilter:
         self.butter = ButterworthQ(s.butterworth_cutoff_hz, s.fps) if s.filter == "butterworth" else None
         self.disparity: float | None = None  # filtered
         self.rate_pxps = 0.0  # filtered d'
+        self.rate_sigma_pxps: float | None = None  # its 1-sigma (Kalman only; None: not known)
         self.sigma_px = math.inf
         self.updates = 0  # accepted disparity measurements since the filter (re)started
 
@@ -146,6 +147,7 @@ class PointFilter:
                 z = None  # a restart must pick up this ship, not whatever the point now sees
             est = self.kalman.update(z)
             memory = self._memory_now()
+            self.rate_sigma_pxps = self.kalman.rate_sigma_pxps() if est.valid else math.inf
             if est.valid and est.accepted:
                 rate = self._plausible_rate(est.disparity_px, est.rate_pxps)
                 self.disparity, self.rate_pxps, self.sigma_px = est.disparity_px, rate, est.sigma_px

@@ -117,3 +117,18 @@ def test_no_ships_no_tracking_fixes(recording) -> None:
     fixes = _run(pipeline, _pairs(path))
     assert not [f for f in fixes if f.status is TrackStatus.TRACKING]
     assert pipeline.counters.processed == 25 and pipeline.counters.detections == 5
+
+
+def test_speed_is_reported_only_when_the_range_rate_is_known(recording) -> None:
+    """The freighter at 1.5 km (d ~ 5 px) gets its 12 kn; the 70 m coaster at 3 km in fog (d ~ 2.5 px,
+    raw disparity scatter ~0.6 px) has a range rate known to tens of knots only, so its T fixes carry
+    no speed or course rather than a ghost speed (it read 27-52 kn before the gate)."""
+    path = recording("akashi-crossing", 95)
+    fixes = [f for f in _run(_pipeline(path), _pairs(path)) if f.status is TrackStatus.TRACKING]
+    near = [f for f in fixes if f.range_m < 2000]
+    far = [f for f in fixes if f.range_m > 2500]
+    assert far, "the coaster should be T by 9.5 s"
+    assert all(f.sog_kn is None and f.cog_deg is None for f in far)
+    with_speed = [f.sog_kn for f in near if f.sog_kn is not None]
+    assert len(with_speed) > len(near) // 2
+    assert all(abs(s - 12.0) < 3.0 for s in with_speed)
