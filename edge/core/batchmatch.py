@@ -7,8 +7,8 @@ the pipeline's cost grew by ~0.4 ms per track (tools/bench). Here the windows an
 of all points are gathered into stacked arrays and their integer cost curves (match) and cost
 squares (follow) computed in one batched product each; the second-best ratios of the squares
 are vectorised too. What remains per point is the part after the integer search, done by the
-same functions the per-point routines use (`refpoint.finish_follow`; for the stereo match the
-gates and `match.refine`, so the sub-pixel method of match.py/subpixel.py carries over), and
+same functions the per-point routines use (`refpoint.finish_follow`, `match.finish_match`: the
+gates and the sub-pixel fit, so the sub-pixel method of match.py/subpixel.py carries over), and
 the parabola fits of the follow read their 3-point curves off the cost square instead of
 recomputing them.
 
@@ -32,17 +32,15 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from edge.core.costs import COSTS
-from edge.core.fixedpoint import SUBPIX_BITS, from_q
 from edge.core.match import (
     SUBPIXEL_METHODS,
     CostArithmetic,
     Match,
     check_images,
+    finish_match,
     match_point,
-    refine,
     round_half_away,
     search_range,
-    second_best_ratio,
 )
 from edge.core.refpoint import FollowSite, PointTrack, finish_follow, follow_site, texture_sigmas, track_point
 
@@ -228,9 +226,10 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
         k0s, ratios = _curve_minima(curves, first, last)
         for it, curve, a, k0, ratio in zip(items, curves, first.tolist(), k0s, ratios, strict=True):
             i, xf, yf, xi, yi, lo, hi, sigma, texture, _ = it
-            out[i] = finish_match(lefts[i], rights[i], xf, yf, xi, yi, lo, curve[a:a + hi - lo + 1], sigma,
-                                  texture, arith, window=window, subpixel=subpixel, min_ratio=min_ratio,
-                                  k0=k0, ratio=ratio)
+            rows = slice(yi - h, yi + h + 1)
+            out[i] = finish_match(arith, lefts[i][rows], rights[i][rows], xf, yf, xi, lo,
+                                  curve[a:a + hi - lo + 1], sigma, texture, width=lefts[i].shape[1],
+                                  subpixel=subpixel, min_ratio=min_ratio, k0=k0, ratio=ratio)
     return out  # type: ignore[return-value]
 
 
@@ -289,37 +288,4 @@ def _match_site(left: object, right: object, x: object, y: object, pred: object,
     return xf, yf, xi, yi
 
 
-def finish_match(left: np.ndarray, right: np.ndarray, xf: float, yf: float, xi: int, yi: int, lo: int,
-                 costs: np.ndarray, sigma: float, texture: float, arith: CostArithmetic, *, window: int,
-                 subpixel: str, min_ratio: float, k0: int | None = None, ratio: float | None = None) -> Match:
-    """`match_point` (integer impl) after its integer search, written out as match.py does it:
-    gates, half-pixel border check and `match.refine`. `costs` in ascending disparity from lo;
-    k0 (its first minimum) and ratio (`second_best_ratio`) when the caller has them.
-    (match.py keeps this part inline; keep the two in step: the equality test compares them.)"""
-    width = left.shape[1]
-    h = window // 2
-    k0 = int(np.argmin(costs)) if k0 is None else k0
-    d0 = lo + k0
-    best = float(costs[k0])
-    ratio = second_best_ratio(costs, k0) if ratio is None else ratio
-
-    def invalid(reason: str) -> Match:
-        return Match(False, math.nan, best, sigma, reason, disparity_int=d0, second_ratio=ratio,
-                     texture=texture, x_px=xf, y_px=yf)
-
-    if not 0 < k0 < len(costs) - 1:
-        return invalid("minimum at the edge of the search range")
-    if ratio < min_ratio:
-        return invalid(f"ambiguous: second-best cost only {ratio:.3f}x the best")
-    if subpixel.startswith("cancel") and (xi - h - 2 < 0 or xi + h + 3 >= width
-                                          or d0 + 2 > xi - h or d0 - 2 < xi + h + 4 - width):
-        return invalid("half-pixel passes run off the image (point or match near the border)")
-    a_band, b_band = left[yi - h:yi + h + 1], right[yi - h:yi + h + 1]
-    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel)
-    if value is None:
-        return invalid(reason)
-    return Match(True, from_q(int(value), SUBPIX_BITS), best, sigma, "", int(value), d0, ratio, texture, xf,
-                 yf)
-
-
-__all__ = ["batch_costs", "finish_match", "match_points", "track_points"]
+__all__ = ["batch_costs", "match_points", "track_points"]

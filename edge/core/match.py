@@ -273,11 +273,24 @@ def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, wind
 
     arith = CostArithmetic(impl, cost)
     costs = arith.curve(a_band, b_band, xi, lo, hi)
-    k0 = int(np.argmin(costs))
+    return finish_match(arith, a_band, b_band, xf, yf, xi, lo, costs, sigma, texture, width=width,
+                        subpixel=subpixel, min_ratio=min_ratio)
+
+
+def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xf: float, yf: float,
+                 xi: int, lo: int, costs: np.ndarray, sigma: float, texture: float, *, width: int,
+                 subpixel: str, min_ratio: float, k0: int | None = None, ratio: float | None = None) -> Match:
+    """`match_point` after its integer search: the gates, the half-pixel border check and `refine`.
+    `costs` in ascending disparity from lo for the window at column xi of the bands (image rows
+    yi - h .. yi + h), `width` the images' width; k0 (the first minimum) and ratio
+    (`second_best_ratio`) when the caller has them (edge.core.batchmatch computes them for many
+    points at once)."""
+    h = a_band.shape[0] // 2
+    k0 = int(np.argmin(costs)) if k0 is None else k0
     d0 = lo + k0
-    best = float(costs[k0]) * (window * window if arith.is_float and cost == "zssd" else 1)
-    ratio = second_best_ratio(costs, k0)
-    extra.update(disparity_int=d0, second_ratio=ratio, cost=best)
+    best = float(costs[k0]) * (a_band.shape[0] ** 2 if arith.is_float and arith.cost == "zssd" else 1)
+    ratio = second_best_ratio(costs, k0) if ratio is None else ratio
+    extra = {"sigma_px": sigma, "texture": texture, "disparity_int": d0, "second_ratio": ratio, "cost": best}
     if not 0 < k0 < len(costs) - 1:
         return _invalid("minimum at the edge of the search range", xf, yf, **extra)
     if ratio < min_ratio:
@@ -294,9 +307,8 @@ def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, wind
     return Match(True, from_q(int(value), SUBPIX_BITS), best, sigma, "", int(value), d0, ratio,
                  texture, xf, yf)
 
-
 match_point_float = partial(match_point, impl="float")
 match_point_float.__doc__ = "Float64 reference of `match_point` (impl='float')."
 
-__all__ = ["CostArithmetic", "Match", "check_images", "match_point", "match_point_float", "refine",
-           "round_half_away", "second_best_ratio", "search_range"]
+__all__ = ["CostArithmetic", "Match", "check_images", "finish_match", "match_point", "match_point_float",
+           "refine", "round_half_away", "second_best_ratio", "search_range"]
