@@ -66,7 +66,7 @@ class Pipeline:
     """One rig's processing state; call `step` with each pair in time order."""
 
     def __init__(self, calibration: Calibration, config: PipelineConfig | None = None, *, fps: float = 10.0,
-                 site: Site | None = None, subpixel: str = "cancel6-gauss", filter: str | None = None,
+                 site: Site | None = None, subpixel: str = PointSettings.subpixel, filter: str | None = None,
                  utc_offset_ns: int = 0) -> None:
         cfg = config or PipelineConfig()
         site = site or calibration.site
