@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from edge.core.geo import KNOT_MPS
 from edge.fix import ShipFix, TrackStatus
 
 BINS_M = ((0, 1000), (1000, 2000), (2000, 3000), (3000, 4000), (4000, 5000))
@@ -45,18 +46,27 @@ class Ship:
     t_ns: np.ndarray  # (n,)
     xyz_m: np.ndarray  # (n, 3) truth (bridge) positions
 
-    def heading_at(self, i: int) -> float | None:
-        """Course (rad, from +Z toward +X) from the truth track over HEADING_SPAN_S around sample i;
-        None if still. (The truth point sways and rolls with the waves: over a few samples a ship at
-        anchor seems to move at random headings, which would spin its outline.)"""
+    def _motion(self, i: int) -> tuple[float, float, float]:
+        """(dx, dz, dt) of the truth track over HEADING_SPAN_S around sample i. (The truth point
+        sways and rolls with the waves: over a few samples a ship at anchor seems to move at random
+        headings, which would spin its outline.)"""
         half_ns = int(HEADING_SPAN_S * 5e8)
         j0 = int(np.searchsorted(self.t_ns, self.t_ns[i] - half_ns))
         j1 = max(j0, int(np.searchsorted(self.t_ns, self.t_ns[i] + half_ns, side="right")) - 1)
         dx, dz = self.xyz_m[j1, 0] - self.xyz_m[j0, 0], self.xyz_m[j1, 2] - self.xyz_m[j0, 2]
-        dt = (self.t_ns[j1] - self.t_ns[j0]) / 1e9
+        return float(dx), float(dz), (self.t_ns[j1] - self.t_ns[j0]) / 1e9
+
+    def heading_at(self, i: int) -> float | None:
+        """Course (rad, from +Z toward +X) from the truth track around sample i; None if still."""
+        dx, dz, dt = self._motion(i)
         if dt <= 0 or math.hypot(dx, dz) / dt < 0.2:
             return None
         return math.atan2(dx, dz)
+
+    def speed_kn_at(self, i: int) -> float:
+        """Speed over ground (kn) from the truth track around sample i (NaN with a single sample)."""
+        dx, dz, dt = self._motion(i)
+        return math.hypot(dx, dz) / dt / KNOT_MPS if dt > 0 else math.nan
 
     def corners(self, i: int) -> np.ndarray:
         """(4, 2) hull outline corners (x, z) at sample i (a square of side L if the ship is still)."""
@@ -95,6 +105,8 @@ class Matched:
     x_m: float
     z_m: float
     bearing_outside_deg: float = 0.0  # degrees the fix's bearing lies outside the hull's angular extent
+    sog_kn: float | None = None  # the fix's speed (None: withheld)
+    truth_sog_kn: float = math.nan
 
 
 @dataclass
@@ -160,7 +172,7 @@ def evaluate(fixes_by_t: dict[int, list[ShipFix]], ships: list[Ship], focal_px: 
             ev.matched.append(Matched(
                 t_ns, s.ship_id, f.track_id, rng, math.hypot(f.x_m, f.z_m) - rng,
                 _wrap(b_fix - _bearing_deg(x, z)), s.outside_hull_m(i, f.x_m, f.z_m),
-                f.sigma_m, f.x_m, f.z_m, max(0.0, lo - b_fix, b_fix - hi)))
+                f.sigma_m, f.x_m, f.z_m, max(0.0, lo - b_fix, b_fix - hi), f.sog_kn, s.speed_kn_at(i)))
             ev.first_t_ns.setdefault(s.ship_id, t_ns)
             if not tracks_of[s.ship_id] or tracks_of[s.ship_id][-1] != f.track_id:
                 tracks_of[s.ship_id].append(f.track_id)
@@ -222,4 +234,16 @@ def first_t_delays(ev: Evaluation) -> dict[int, float | None]:
     for sid, t0 in ev.first_visible_ns.items():
         t1 = ev.first_t_ns.get(sid)
         out[sid] = None if t1 is None else max(0.0, (t1 - t0) / 1e9)
+    return out
+
+
+def speed_rows(ev: Evaluation) -> dict[int, dict]:
+    """Per ship: T fixes, how many carry a speed, and its error against the truth track (kn)."""
+    out = {}
+    for sid in sorted({m.ship_id for m in ev.matched}):
+        ms = [m for m in ev.matched if m.ship_id == sid]
+        e = np.array([m.sog_kn - m.truth_sog_kn for m in ms if m.sog_kn is not None])
+        out[sid] = {"fixes": len(ms), "with_speed": len(e),
+                    "rms_kn": float(np.sqrt(np.mean(e**2))) if len(e) else None,
+                    "max_kn": float(np.abs(e).max()) if len(e) else None}
     return out

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -46,3 +47,11 @@ def test_imo_against_bridge_and_hull(range_m: float, along_m: float) -> None:
     assert m.outside_hull_m == pytest.approx(outside, abs=1e-6)
     assert em.imo_hull_ok(m) == (outside <= tol)
     assert em.imo_ok(m) <= em.imo_hull_ok(m)  # a fix near the bridge is near the hull
+
+
+def test_truth_speed_and_the_speed_error_of_matched_fixes() -> None:
+    ship = _ship(2000.0)                                   # 10 m/s = 19.44 kn, bow-on
+    assert ship.speed_kn_at(5) == pytest.approx(10.0 * 3600 / 1852)
+    fixes = {9 * 10**9: [dataclasses.replace(_fix(0.0, 2000.0), sog_kn=21.0)]}
+    rows = em.speed_rows(em.evaluate(fixes, [ship], 2600.0, 2048))
+    assert rows[1]["with_speed"] == 1 and rows[1]["rms_kn"] == pytest.approx(21.0 - 10.0 * 3600 / 1852)
