@@ -26,6 +26,16 @@ max bias 0.0076 -> 0.0038 px, lower RMS on every condition, ~1.3x the time of "c
 call. If a correlation is not positive or a model curve has no interior minimum it uses
 the parabola fits of "cancel6" (and the four-pass result if the mirrored passes fail).
 
+subpixel="refit": the "cancel" estimate (four parabola passes), then `refit.refit_q8`: the
+right band resampled at that estimate (8-tap windowed sinc, 1/256 px phases) and eq. 5.2 on
+-log NCC refitted around zero, both ways, where pixel locking vanishes (tools/bench-core).
+One step suffices: the refit's result moves by a small fraction of the error in its start
+(tests/edge/core/test_refit.py). Where
+the refit cannot run (the interpolator needs 3 more right-image columns than the passes; no
+interior minimum) and where the predicted sigma exceeds REFIT_MAX_SIGMA_PX (noise-dominated
+windows, e.g. fog t=0.06, where its 3-sample fit is noisier than six averaged passes and
+unstable) it returns the "cancel6-gauss" estimate.
+
 The sub-pixel stage is `refine(arith, a_band, b_band, xa, d_lo, costs, k0, method)`: it takes
 only the outcome of the integer search (the row bands, the window column, the curve and its
 minimum), so a caller that runs the search for many points at once can reuse it per point.
@@ -56,10 +66,12 @@ import numpy as np
 from edge.core import subpixel as sp
 from edge.core.costs import COSTS, cost_curve, cost_curve_float, cost_curve_reference, gradient_energy
 from edge.core.fixedpoint import SUBPIX_BITS, from_q
+from edge.core.refit import refit_float, refit_q8
 
-SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "cancel-oneway", "parabola", "none")
+SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "refit", "cancel-oneway", "parabola", "none")
 IMPLS = ("int", "int-ref", "float")
 DEFAULT_SEARCH_RADIUS = 4
+REFIT_MAX_SIGMA_PX = 0.08    # subpixel="refit" refits only below this predicted sigma (module doc)
 
 
 @dataclass(frozen=True)
@@ -139,6 +151,13 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
 
     Returns (Q8 int or float px, reason). Cancellation needs d0 - 2 .. d0 + 2 to be searchable."""
     d0 = d_lo + k0
+    if method == "refit":
+        first, reason = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel")
+        step = refit_float if arith.is_float else refit_q8
+        value = None if first is None else step(a_band, b_band, xa, first)
+        if value is None:                   # near the border or no interior minimum: the six passes
+            return refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel6-gauss")
+        return value, ""
     if method == "none":
         return (float(d0) if arith.is_float else d0 << SUBPIX_BITS), ""
     if method == "parabola":
@@ -295,10 +314,12 @@ def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, 
         return _invalid("minimum at the edge of the search range", xf, yf, **extra)
     if ratio < min_ratio:
         return _invalid(f"ambiguous: second-best cost only {ratio:.3f}x the best", xf, yf, **extra)
-    if subpixel.startswith("cancel") and (xi - h - 2 < 0 or xi + h + 3 >= width
+    if subpixel not in ("parabola", "none") and (xi - h - 2 < 0 or xi + h + 3 >= width
                                           or d0 + 2 > xi - h or d0 - 2 < xi + h + 4 - width):
         return _invalid("half-pixel passes run off the image (point or match near the border)", xf, yf,
                         **extra)
+    if subpixel == "refit" and not sigma <= REFIT_MAX_SIGMA_PX:
+        subpixel = "cancel6-gauss"
     value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel)
     if value is None:
         return _invalid(reason, xf, yf, **extra)

@@ -1,0 +1,223 @@
+"""Shift-and-refit: a second sub-pixel stage that removes most of what is left of pixel locking
+by resampling the right image at a first estimate and refitting the small residual around zero.
+
+Why: every 3-point fit of a sampled cost curve has an error e(f) that depends on the fractional
+disparity f (pixel locking) and vanishes at f = 0 by symmetry. The half-pixel passes of
+`subpixel.py` cancel its odd harmonics only in part (their [1 1] kernel weights the spectrum
+unlike the integer passes; README "Known limits"). Here the right band is resampled so that
+the remaining disparity is near zero, and eq. 5.2 on -log NCC (the Gaussian model of
+`subpixel.gauss_fit_q`) is fitted around zero, where its locking error is ~slope x residual:
+
+    Rs(x) = R(x - s),  s = the first estimate (Q8: n whole pixels + phase p/256)
+    LR fit: template L(x), candidates Rs(x - k), k = -1, 0, 1   -> rL ~ d - s
+    RL fit: template Rs(x), candidates L(x - k)                  -> rR ~ s - d
+    d = s + (rL - rR) / 2
+
+A finite window's correlation peak is not symmetric (its edge columns), which shifts each fit
+by a per-texture constant of ~0.02 px; in the RL fit it has the other sign, so the average
+removes it. Why not Gauss-Newton on interpolated samples (tools/_bench_subpix_study.py): there
+the interpolator's phase error at fractional positions is the estimate's error, and short
+kernels (linear, Keys, Lanczos-3) have too much of it; here an 8-tap kernel carries it, and
+only the right image is resampled, so the left one keeps its noise unfiltered.
+
+Interpolator: 8-tap Kaiser-windowed sinc (beta 6, half-width 4), as video codecs do it:
+`taps_q14()[p]` holds the taps for the phase p/256, each row summing to exactly 2^14 (an
+offset stays an offset). Beta and length were chosen on the tuning seeds (tools/bench-core
+--sections study): a flatter passband (beta 4-5) is better on smooth texture and worse on the
+aliased "sharp" condition; beta 6 gains on both; longer kernels lose on aliased texture.
+
+Integer form: Rs = right band x the banded tap matrix (Q14, exact in float64), rounded once to
+Q8 DN (|Rs| < 2^17); every window sum (S1, S2 of each window, the cross sums) is one entry sum
+of the Gram matrix of [L | Rs | 1], exact integers below 2^53 (N S2 < 2^50). Per fit, the N-scaled
+energies E(k) = N S2 - S1^2 and cross terms X(k) = N sum T C - S1_T S1_C are Python ints; the
+first and second differences of y = log2 E - 2 log2 X are the logs of two exact Q40 quotients
+(`_fit_q`, table log2 of `fixedpoint`, Q24), one division to Q10 per fit, and
+s + (rL - rR) / 2 is formed in Q11 and rounded once to Q8. Float reference: the same with
+float taps at the unrounded shift, float sums and math.log2. Difference: 2^-11 (fits) +
+2^-9 (final rounding) + the Q8 rounding of Rs (far below the noise) < 1/256 px; the refit moves
+by a small fraction of a change in s, so the float's unrounded s adds little.
+Needs left columns xl - h - 1 .. xl + h + 1 and right columns xr - h - 5 .. xr + h + 4
+(xr = xl - n); `refit_q8` returns None when the bands do not hold them or a fit has no interior
+minimum.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from edge.core.fixedpoint import (
+    FIT_BITS,
+    LOG2_TABLE,
+    LOG_BITS,
+    LOG_TABLE_BITS,
+    SUBPIX_BITS,
+    div_round,
+    round_shift,
+)
+from edge.core.subpixel import gauss_fit_float
+
+PHASE_BITS = 8                    # the applied shift s in Q8 (1/256 px, the first estimate itself)
+TAP_BITS = 14                     # Q14 interpolation taps
+RS_BITS = 8                       # resampled right band in Q8 DN
+HALF_TAPS = 4                     # 8 taps: j = -4 .. 3
+KAISER_BETA = 6.0
+_J = np.arange(-HALF_TAPS, HALF_TAPS)
+
+
+def kernel_float(q: float) -> np.ndarray:
+    """Taps c_j (j = -4..3) that sample a row at x - q for 0 <= q < 1: sum_j c_j R(x + j)
+    ~ R(x - q); Kaiser-windowed sinc, normalised to sum 1."""
+    t = _J + q                                          # distance of tap j from x - q
+    window = np.i0(KAISER_BETA * np.sqrt(np.clip(1.0 - (t / HALF_TAPS) ** 2, 0.0, None)))
+    taps = np.sinc(t) * window
+    return taps / taps.sum()
+
+
+@functools.cache
+def taps_q14() -> np.ndarray:
+    """(64, 8) int64 table: row p is `kernel_float(p / 64)` in Q14, rounded, with the rounding
+    residue put on the largest tap so every row sums to exactly 2^14."""
+    table = np.rint(np.stack([kernel_float(p / (1 << PHASE_BITS)) for p in range(1 << PHASE_BITS)])
+                    * (1 << TAP_BITS)).astype(np.int64)
+    rows = np.arange(table.shape[0])
+    table[rows, np.argmax(table, axis=1)] += (1 << TAP_BITS) - table.sum(axis=1)
+    return table
+
+
+@functools.cache
+def _interp_matrix(p: int, ncols: int) -> np.ndarray:
+    """(ncols + 7, ncols) float64 banded matrix of phase p's Q14 taps: a band's columns
+    c - 4 .. c + ncols + 2 times it gives the band sampled at c - p/256 .. (Q14)."""
+    return _banded(taps_q14()[p].astype(np.float64), ncols)
+
+
+def _banded(taps: np.ndarray, ncols: int) -> np.ndarray:
+    m = np.zeros((ncols + 2 * HALF_TAPS - 1, ncols))
+    for j, tap in zip(_J, taps, strict=True):
+        m[np.arange(ncols) + j + HALF_TAPS, np.arange(ncols)] = tap
+    return m
+
+
+@functools.cache
+def _sum_index(w: int) -> np.ndarray:
+    """(18, w) flat indices into the Gram matrix of [L | Rs | 1] (w + 2 columns each, then a
+    ones column) whose row sums are: S1 of L windows at column offsets 0, 1, 2 (the window at
+    x - k has offset 1 - k); S1 of Rs windows; S2 of L; S2 of Rs; the LR cross sums of
+    template L (offset 1) with Rs at x - k, k = -1, 0, 1; the RL cross sums of template Rs
+    (offset 1) with L at x - k."""
+    m = 2 * (w + 2) + 1
+    one, c = m - 1, np.arange(w)
+    rows = []
+    for b in (0, w + 2):                                             # S1: (col, ones)
+        rows += [(o + b + c) * m + one for o in range(3)]
+    for b in (0, w + 2):                                             # S2: diagonal
+        rows += [(o + b + c) * (m + 1) for o in range(3)]
+    rows += [(1 + c) * m + (w + 2) + (1 - k) + c for k in (-1, 0, 1)]   # L(1 + c) x Rs(1 - k + c)
+    rows += [(1 - k + c) * m + (w + 2) + 1 + c for k in (-1, 0, 1)]     # L(1 - k + c) x Rs(1 + c)
+    return np.stack(rows)
+
+
+def _sums(ls: np.ndarray, rs: np.ndarray) -> list:
+    """The 18 window sums of `_sum_index` from one Gram matrix (exact integers in float64)."""
+    q = np.concatenate((ls, rs, np.ones((ls.shape[0], 1))), axis=1)
+    return (q.T @ q).ravel()[_sum_index(ls.shape[0])].sum(axis=1).tolist()
+
+
+def _log2_int(v: int) -> int:
+    """Scalar `fixedpoint.log2_q` (Q24) of a positive int below 2^62 (bit-identical)."""
+    e = v.bit_length() - 1
+    frac = (v << (62 - e)) - (1 << 62)
+    low_bits = 62 - LOG_TABLE_BITS
+    idx = frac >> low_bits
+    base, step = _LOG2[idx], _LOG2[idx + 1] - _LOG2[idx]
+    return (e << LOG_BITS) + base + ((step * ((frac >> (low_bits - 30)) & ((1 << 30) - 1))) >> 30)
+
+
+_LOG2 = [int(v) for v in LOG2_TABLE]
+RATIO_BITS = 40                   # the two log arguments as Q40 quotients
+
+
+def _fit_q(n_px: int, s1_t: int, s1_c: list, s2_c: list, cross: list) -> int | None:
+    """Q10 vertex of y(k) = log2 E_C(k) - 2 log2 X(k), k = -1, 0, 1 (eq. 5.2 on -log NCC), or
+    None without an interior minimum. Exact integers: the first and second differences of y
+    are logs of two quotients, y(-1) - y(1) = log2(E- X+^2 / (E+ X-^2)) and y(-1) - 2 y(0) + y(1)
+    = log2(E- E+ X0^4 / (E0^2 X-^2 X+^2)), each taken as a Q40 quotient (a port needs
+    ~200-bit products here, or the six logs of `fixedpoint.log2_q` instead)."""
+    e = [n_px * b - a * a for a, b in zip(s1_c, s2_c, strict=True)]
+    x = [n_px * c - s1_t * a for a, c in zip(s1_c, cross, strict=True)]
+    if min(e) <= 0 or min(x) <= 0:
+        return None
+    (em, e0, ep), (xm, x0, xp) = e, x
+    if not (e0 * xm * xm < em * x0 * x0 and e0 * xp * xp <= ep * x0 * x0):     # y(0) the first minimum
+        return None
+    q1 = ((em * xp * xp) << RATIO_BITS) // (ep * xm * xm)
+    q2 = ((em * ep * x0 ** 4) << RATIO_BITS) // (e0 * e0 * xm * xm * xp * xp)
+    if not (0 < q1 < 1 << 62 and 1 << RATIO_BITS < q2 < 1 << 62):
+        return None
+    num = _log2_int(q1) - (RATIO_BITS << LOG_BITS)
+    den = 2 * (_log2_int(q2) - (RATIO_BITS << LOG_BITS))
+    if den <= 0 or abs(num) > den:
+        return None
+    return div_round(num << FIT_BITS, den)
+
+
+def _fit_float(n_px: int, s1_t: float, s1_c: list, s2_c: list, cross: list) -> float | None:
+    """Float reference of `_fit_q` (px), through `subpixel.gauss_fit_float`."""
+    e = [n_px * b - a * a for a, b in zip(s1_c, s2_c, strict=True)]
+    x = [n_px * c - s1_t * a for a, c in zip(s1_c, cross, strict=True)]
+    if min(e) <= 0 or min(x) <= 0:
+        return None
+    fit = gauss_fit_float([math.log2(a) - 2 * math.log2(b) for a, b in zip(e, x, strict=True)], -1)
+    return fit
+
+
+def _columns(band_width: int, right_width: int, xl: int, h: int, n: int) -> tuple[int, int] | None:
+    """First column of the left windows' span xl - h - 1 .. xl + h + 1 and of the right
+    columns the interpolator reads, if both bands hold them."""
+    lo, hi = xl - h - 1, xl + h + 1
+    if lo < 0 or hi >= band_width or lo - n - HALF_TAPS < 0 or hi - n + HALF_TAPS - 1 >= right_width:
+        return None
+    return lo, lo - n - HALF_TAPS
+
+
+def refit_q8(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_q8: int) -> int | None:
+    """Refined disparity (Q8 px) of the window at column xl of left_band, given a first estimate
+    first_q8 (Q8); None if the bands lack the columns or a fit has no interior minimum."""
+    w = left_band.shape[0]
+    n, p = first_q8 >> PHASE_BITS, first_q8 & ((1 << PHASE_BITS) - 1)
+    span = _columns(left_band.shape[1], right_band.shape[1], xl, w // 2, n)
+    if span is None:
+        return None
+    lo, r_lo = span
+    rs = right_band[:, r_lo:r_lo + w + 2 * HALF_TAPS + 1] @ _interp_matrix(p, w + 2)       # Q14
+    rs = np.floor((rs + (1 << (TAP_BITS - RS_BITS - 1))) * (1.0 / (1 << (TAP_BITS - RS_BITS))))
+    v = [int(a) for a in _sums(left_band[:, lo:lo + w + 2], rs)]
+    n_px = w * w
+    r_l = _fit_q(n_px, v[1], v[5:2:-1], v[11:8:-1], v[12:15])              # template L, candidates Rs
+    r_r = _fit_q(n_px, v[4], v[2::-1], v[8:5:-1], v[15:18])               # template Rs, candidates L
+    if r_l is None or r_r is None:
+        return None
+    d_q11 = (first_q8 << (FIT_BITS + 1 - PHASE_BITS)) + r_l - r_r
+    return round_shift(d_q11, FIT_BITS + 1 - SUBPIX_BITS)
+
+
+def refit_float(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_px: float) -> float | None:
+    """Float reference of `refit_q8` (px): the shift is the first estimate itself (no 1/256 px
+    phase rounding), float taps, window sums and logs."""
+    w = left_band.shape[0]
+    n = math.floor(first_px)
+    span = _columns(left_band.shape[1], right_band.shape[1], xl, w // 2, n)
+    if span is None:
+        return None
+    lo, r_lo = span
+    rs = right_band[:, r_lo:r_lo + w + 2 * HALF_TAPS + 1] @ _banded(kernel_float(first_px - n), w + 2)
+    v = _sums(left_band[:, lo:lo + w + 2].astype(np.float64), rs)
+    n_px = w * w
+    r_l = _fit_float(n_px, v[1], v[5:2:-1], v[11:8:-1], v[12:15])
+    r_r = _fit_float(n_px, v[4], v[2::-1], v[8:5:-1], v[15:18])
+    if r_l is None or r_r is None:
+        return None
+    return first_px + 0.5 * (r_l - r_r)
