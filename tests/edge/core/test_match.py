@@ -86,7 +86,7 @@ def test_rms_near_cramer_rao_bound() -> None:
 @pytest.mark.parametrize("cond", [Condition("tex"), Condition("sharp", kind="sharp", psf_sigma_px=0.25),
                                   Condition("fog", fog_t=0.15), Condition("gain", gain=0.9, noise_dn=4),
                                   Condition("vert", vertical_8ths=2)], ids=lambda c: c.name)
-@pytest.mark.parametrize("sub", ["cancel", "cancel6", "cancel6-gauss", "parabola"])
+@pytest.mark.parametrize("sub", ["cancel", "cancel6", "cancel6-gauss", "refit", "parabola"])
 def test_integer_within_one_q8_lsb_of_float_reference(cond: Condition, sub: str) -> None:
     rng = np.random.default_rng(7)
     scene = make_scene(rng, 40, 80, cond.kind)
@@ -101,7 +101,7 @@ def test_integer_within_one_q8_lsb_of_float_reference(cond: Condition, sub: str)
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.integers(0, 2**31), st.integers(0, 31), st.sampled_from(["cancel", "cancel6", "cancel6-gauss"]))
+@given(st.integers(0, 2**31), st.integers(0, 31), st.sampled_from(["cancel", "cancel6", "cancel6-gauss", "refit"]))
 def test_integer_half_pixel_passes_match_float_on_random_renders(seed: int, k: int, sub: str) -> None:
     rng = np.random.default_rng(seed)
     pair = render_pair(make_scene(rng, 40, 80, "hull"), rng, 32 * 5 + k, height_px=31, width_px=60)
