@@ -229,7 +229,8 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
             rows = slice(yi - h, yi + h + 1)
             out[i] = finish_match(arith, lefts[i][rows], rights[i][rows], xf, yf, xi, lo,
                                   curve[a:a + hi - lo + 1], sigma, texture, width=lefts[i].shape[1],
-                                  subpixel=subpixel, min_ratio=min_ratio, k0=k0, ratio=ratio)
+                                  subpixel=subpixel, min_ratio=min_ratio, k0=k0, ratio=ratio,
+                                  noise_dn=noise_dn)
     return out  # type: ignore[return-value]
 
 

@@ -71,7 +71,8 @@ from edge.core.refit import refit_float, refit_q8
 SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "refit", "cancel-oneway", "parabola", "none")
 IMPLS = ("int", "int-ref", "float")
 DEFAULT_SEARCH_RADIUS = 4
-REFIT_MAX_SIGMA_PX = 0.08    # subpixel="refit" refits only below this predicted sigma (module doc)
+REFIT_MAX_SIGMA_PX = 0.08          # subpixel="refit" refits only up to this predicted sigma (module doc)
+REFIT_SMOOTH_MAX_SIGMA_PX = 0.01   # ... and smooths both views by [1 6 1]/8 up to this one
 
 
 @dataclass(frozen=True)
@@ -146,15 +147,18 @@ class CostArithmetic:
 
 
 def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int,
-           costs: np.ndarray, k0: int, method: str) -> tuple[float | int | None, str]:
-    """Sub-pixel disparity around the integer minimum costs[k0] (d0 = d_lo + k0).
+           costs: np.ndarray, k0: int, method: str, sigma_px: float = math.inf,
+           noise_dn: float = 1.0) -> tuple[float | int | None, str]:
+    """Sub-pixel disparity around the integer minimum costs[k0] (d0 = d_lo + k0); sigma_px (the
+    predicted sigma) and noise_dn (the read noise) set what "refit" does (module doc).
 
     Returns (Q8 int or float px, reason). Cancellation needs d0 - 2 .. d0 + 2 to be searchable."""
     d0 = d_lo + k0
-    if method == "refit":
+    if method == "refit" and sigma_px <= REFIT_MAX_SIGMA_PX:
         first, reason = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel")
         step = refit_float if arith.is_float else refit_q8
-        value = None if first is None else step(a_band, b_band, xa, first)
+        noise = noise_dn if sigma_px <= REFIT_SMOOTH_MAX_SIGMA_PX else None
+        value = None if first is None else step(a_band, b_band, xa, first, noise)
         if value is None:                   # near the border or no interior minimum: the six passes
             return refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel6-gauss")
         return value, ""
@@ -165,6 +169,8 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
         if fit is None:
             return None, "cost curve does not bracket the minimum (den <= 0)"
         return (fit if arith.is_float else sp.fit_to_q8(fit)), ""
+    if method == "refit":
+        method = "cancel6-gauss"
     if method == "cancel6-gauss" and arith.cost == "zssd":
         value = _gauss6(arith, a_band, b_band, xa, d0)
         if value is not None:
@@ -293,17 +299,18 @@ def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, wind
     arith = CostArithmetic(impl, cost)
     costs = arith.curve(a_band, b_band, xi, lo, hi)
     return finish_match(arith, a_band, b_band, xf, yf, xi, lo, costs, sigma, texture, width=width,
-                        subpixel=subpixel, min_ratio=min_ratio)
+                        subpixel=subpixel, min_ratio=min_ratio, noise_dn=noise_dn)
 
 
 def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xf: float, yf: float,
                  xi: int, lo: int, costs: np.ndarray, sigma: float, texture: float, *, width: int,
-                 subpixel: str, min_ratio: float, k0: int | None = None, ratio: float | None = None) -> Match:
+                 subpixel: str, min_ratio: float, k0: int | None = None, ratio: float | None = None,
+                 noise_dn: float = 1.0) -> Match:
     """`match_point` after its integer search: the gates, the half-pixel border check and `refine`.
     `costs` in ascending disparity from lo for the window at column xi of the bands (image rows
     yi - h .. yi + h), `width` the images' width; k0 (the first minimum) and ratio
     (`second_best_ratio`) when the caller has them (edge.core.batchmatch computes them for many
-    points at once)."""
+    points at once); noise_dn as in `match_point` (subpixel="refit" uses it)."""
     h = a_band.shape[0] // 2
     k0 = int(np.argmin(costs)) if k0 is None else k0
     d0 = lo + k0
@@ -318,9 +325,7 @@ def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, 
                                           or d0 + 2 > xi - h or d0 - 2 < xi + h + 4 - width):
         return _invalid("half-pixel passes run off the image (point or match near the border)", xf, yf,
                         **extra)
-    if subpixel == "refit" and not sigma <= REFIT_MAX_SIGMA_PX:
-        subpixel = "cancel6-gauss"
-    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel)
+    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel, sigma, noise_dn)
     if value is None:
         return _invalid(reason, xf, yf, **extra)
     if arith.is_float:

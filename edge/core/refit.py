@@ -64,6 +64,8 @@ TAP_BITS = 14                     # Q14 interpolation taps
 RS_BITS = 8                       # resampled right band in Q8 DN
 HALF_TAPS = 4                     # 8 taps: j = -4 .. 3
 KAISER_BETA = 6.0
+SMOOTHED_NOISE_GAIN = 38 / 64     # noise variance through [1 6 1]/8
+MISMATCH_FACTOR = 3.0             # smoothing only where the views match to 3x the noise (doc)
 _J = np.arange(-HALF_TAPS, HALF_TAPS)
 
 
@@ -88,10 +90,22 @@ def taps_q14() -> np.ndarray:
 
 
 @functools.cache
-def _interp_matrix(p: int, ncols: int) -> np.ndarray:
-    """(ncols + 7, ncols) float64 banded matrix of phase p's Q14 taps: a band's columns
-    c - 4 .. c + ncols + 2 times it gives the band sampled at c - p/256 .. (Q14)."""
-    return _banded(taps_q14()[p].astype(np.float64), ncols)
+def _interp_matrix(p: int, ncols: int, smooth: bool) -> np.ndarray:
+    """Band columns c - 4 .. c + ncols + 2 times this (ncols + 7, ncols') float64 matrix give
+    the band sampled at c - p/256 .. in Q14 (ncols' = ncols), or with `smooth` then filtered
+    by [1 6 1] in Q17 (ncols' = ncols - 2, from c + 1 - p/256); exact integer entries."""
+    m = _banded(taps_q14()[p].astype(np.float64), ncols)
+    return m @ _smoother(ncols) if smooth else m
+
+
+@functools.cache
+def _smoother(ncols: int) -> np.ndarray:
+    """(ncols, ncols - 2) matrix of the [1 6 1] filter (x 8, exact): column c is 1, 6, 1 at
+    rows c, c + 1, c + 2."""
+    m = np.zeros((ncols, ncols - 2))
+    c = np.arange(ncols - 2)
+    m[c, c], m[c + 1, c], m[c + 2, c] = 1.0, 6.0, 1.0
+    return m
 
 
 def _banded(taps: np.ndarray, ncols: int) -> np.ndarray:
@@ -174,28 +188,47 @@ def _fit_float(n_px: int, s1_t: float, s1_c: list, s2_c: list, cross: list) -> f
     return fit
 
 
-def _columns(band_width: int, right_width: int, xl: int, h: int, n: int) -> tuple[int, int] | None:
-    """First column of the left windows' span xl - h - 1 .. xl + h + 1 and of the right
-    columns the interpolator reads, if both bands hold them."""
-    lo, hi = xl - h - 1, xl + h + 1
+def _mismatched(n_px: int, v: list, noise_var: float) -> bool:
+    """Whether the centre windows (template L, Rs at k = 0) differ by more than MISMATCH_FACTOR
+    times what noise of variance noise_var (in L's units) in both views explains: with
+    E_T, E_C, X the N-scaled energies and cross term, 1 - X^2 / (E_T E_C) against
+    2 noise_var N^2 / E_T (the exact integer side is compared with a float bound)."""
+    e_t, e_c = n_px * v[7] - v[1] * v[1], n_px * v[10] - v[4] * v[4]
+    x0 = n_px * v[13] - v[1] * v[4]
+    return e_t * e_c - x0 * x0 > MISMATCH_FACTOR * 2 * noise_var * n_px * n_px * e_c
+
+
+def _columns(band_width: int, right_width: int, xl: int, h: int, n: int, e: int) -> tuple[int, int] | None:
+    """First column of the left span xl - h - 1 - e .. xl + h + 1 + e (e = 1 with the smoothing
+    filter) and of the right columns the interpolator reads, if both bands hold them."""
+    lo, hi = xl - h - 1 - e, xl + h + 1 + e
     if lo < 0 or hi >= band_width or lo - n - HALF_TAPS < 0 or hi - n + HALF_TAPS - 1 >= right_width:
         return None
     return lo, lo - n - HALF_TAPS
 
 
-def refit_q8(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_q8: int) -> int | None:
+def refit_q8(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_q8: int,
+             smooth_noise_dn: float | None = None) -> int | None:
     """Refined disparity (Q8 px) of the window at column xl of left_band, given a first estimate
-    first_q8 (Q8); None if the bands lack the columns or a fit has no interior minimum."""
-    w = left_band.shape[0]
+    first_q8 (Q8). With smooth_noise_dn (the read noise, DN) both views are filtered by
+    [1 6 1]/8 first unless the aligned windows differ by more than that noise explains (module
+    doc). None if the bands lack the columns or a fit has no interior minimum."""
+    smooth = smooth_noise_dn is not None
+    w, e = left_band.shape[0], int(smooth)
     n, p = first_q8 >> PHASE_BITS, first_q8 & ((1 << PHASE_BITS) - 1)
-    span = _columns(left_band.shape[1], right_band.shape[1], xl, w // 2, n)
+    span = _columns(left_band.shape[1], right_band.shape[1], xl, w // 2, n, e)
     if span is None:
         return None
     lo, r_lo = span
-    rs = right_band[:, r_lo:r_lo + w + 2 * HALF_TAPS + 1] @ _interp_matrix(p, w + 2)       # Q14
-    rs = np.floor((rs + (1 << (TAP_BITS - RS_BITS - 1))) * (1.0 / (1 << (TAP_BITS - RS_BITS))))
-    v = [int(a) for a in _sums(left_band[:, lo:lo + w + 2], rs)]
+    ncols = w + 2 + 2 * e
+    rs = right_band[:, r_lo:r_lo + ncols + 2 * HALF_TAPS - 1] @ _interp_matrix(p, ncols, smooth)  # Q14/Q17
+    shift = TAP_BITS + 3 * e - RS_BITS
+    rs = np.floor((rs + (1 << (shift - 1))) * (1.0 / (1 << shift)))                          # Q8 DN
+    ls = left_band[:, lo:lo + ncols]
+    v = [int(a) for a in _sums(ls @ _smoother(ncols) if smooth else ls, rs)]
     n_px = w * w
+    if smooth and _mismatched(n_px, v, SMOOTHED_NOISE_GAIN * 64 * (smooth_noise_dn ** 2 + 1 / 12)):
+        return refit_q8(left_band, right_band, xl, first_q8)
     r_l = _fit_q(n_px, v[1], v[5:2:-1], v[11:8:-1], v[12:15])              # template L, candidates Rs
     r_r = _fit_q(n_px, v[4], v[2::-1], v[8:5:-1], v[15:18])               # template Rs, candidates L
     if r_l is None or r_r is None:
@@ -204,18 +237,26 @@ def refit_q8(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_q8: i
     return round_shift(d_q11, FIT_BITS + 1 - SUBPIX_BITS)
 
 
-def refit_float(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_px: float) -> float | None:
+def refit_float(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_px: float,
+                smooth_noise_dn: float | None = None) -> float | None:
     """Float reference of `refit_q8` (px): the shift is the first estimate itself (no 1/256 px
-    phase rounding), float taps, window sums and logs."""
-    w = left_band.shape[0]
+    phase rounding), float taps, filter, window sums and logs."""
+    smooth = smooth_noise_dn is not None
+    w, e = left_band.shape[0], int(smooth)
     n = math.floor(first_px)
-    span = _columns(left_band.shape[1], right_band.shape[1], xl, w // 2, n)
+    span = _columns(left_band.shape[1], right_band.shape[1], xl, w // 2, n, e)
     if span is None:
         return None
     lo, r_lo = span
-    rs = right_band[:, r_lo:r_lo + w + 2 * HALF_TAPS + 1] @ _banded(kernel_float(first_px - n), w + 2)
-    v = _sums(left_band[:, lo:lo + w + 2].astype(np.float64), rs)
+    ncols = w + 2 + 2 * e
+    rs = right_band[:, r_lo:r_lo + ncols + 2 * HALF_TAPS - 1] @ _banded(kernel_float(first_px - n), ncols)
+    ls = left_band[:, lo:lo + ncols].astype(np.float64)
+    if smooth:
+        ls, rs = ls @ _smoother(ncols) / 8, rs @ _smoother(ncols) / 8
+    v = _sums(ls, rs)
     n_px = w * w
+    if smooth and _mismatched(n_px, v, SMOOTHED_NOISE_GAIN * (smooth_noise_dn ** 2 + 1 / 12)):
+        return refit_float(left_band, right_band, xl, first_px)
     r_l = _fit_float(n_px, v[1], v[5:2:-1], v[11:8:-1], v[12:15])
     r_r = _fit_float(n_px, v[4], v[2::-1], v[8:5:-1], v[15:18])
     if r_l is None or r_r is None:

@@ -50,28 +50,31 @@ def _pair(seed: int, k32: int, noise_dn: float = 0.0):
 
 
 @settings(max_examples=20, deadline=None)
-@given(st.integers(0, 2**31), st.integers(0, 31), st.integers(-13, 13))
-def test_refit_pulls_a_wrong_start_to_the_truth(seed: int, k32: int, start_error_q8: int) -> None:
+@given(st.integers(0, 2**31), st.integers(0, 31), st.integers(-13, 13), st.sampled_from([None, 1.0]))
+def test_refit_pulls_a_wrong_start_to_the_truth(seed: int, k32: int, start_error_q8: int,
+                                                smooth: float | None) -> None:
     # noise-free exact shift: from a start up to 0.05 px off (several times the first stage's
     # error), one refit lands within 0.02 px and passes on at most 30 % of the start's error
     pair = _pair(seed, k32)
     a, b = pair.left[15 - H:15 + H + 1], pair.right[15 - H:15 + H + 1]
     truth_q8 = round(pair.disparity_px * 256)
-    out = rf.refit_q8(a, b, 40, truth_q8 + start_error_q8)
-    at_truth = rf.refit_q8(a, b, 40, truth_q8)
+    out = rf.refit_q8(a, b, 40, truth_q8 + start_error_q8, smooth)
+    at_truth = rf.refit_q8(a, b, 40, truth_q8, smooth)
     assert out is not None and at_truth is not None
     assert abs(out - truth_q8) <= 0.02 * 256
     assert abs(out - at_truth) <= 0.3 * abs(start_error_q8) + 1
 
 
-@settings(max_examples=30, deadline=None)
-@given(st.integers(0, 2**31), st.integers(0, 31), st.sampled_from([1.0, 4.0]), st.integers(-300, 300))
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31), st.integers(0, 31), st.sampled_from([1.0, 4.0]), st.integers(-300, 300),
+       st.booleans())
 def test_integer_refit_within_one_q8_lsb_of_float(seed: int, k32: int, noise_dn: float,
-                                                  start_q8: int) -> None:
+                                                  start_q8: int, smooth: bool) -> None:
     pair = _pair(seed, k32, noise_dn)
     a, b = pair.left[15 - H:15 + H + 1], pair.right[15 - H:15 + H + 1]
     first_q8 = round(pair.disparity_px * 256) + start_q8 // 10
-    qi, qf = rf.refit_q8(a, b, 40, first_q8), rf.refit_float(a, b, 40, first_q8 / 256)
+    noise = noise_dn if smooth else None
+    qi, qf = rf.refit_q8(a, b, 40, first_q8, noise), rf.refit_float(a, b, 40, first_q8 / 256, noise)
     assert (qi is None) == (qf is None)
     if qi is not None:
         assert abs(qi / 256 - qf) <= 1 / 256
@@ -88,6 +91,26 @@ def test_border_needs_the_interpolator_columns() -> None:
     # match_point still answers there, with the six-pass estimate
     m = match_point(pair.left, pair.right, 40, 15, max_disparity=12, subpixel="refit")
     assert m.valid and abs(m.disparity_px - pair.disparity_px) < 0.05
+
+
+def test_smoothing_only_where_the_views_match_to_the_noise() -> None:
+    # aligned windows that differ by noise only keep the [1 6 1] smoothing; a 0.25 px vertical
+    # offset between the views is a mismatch noise does not explain, so the refit drops it
+    rng = np.random.default_rng(11)
+    scene = make_scene(rng, 40, 80, "hull")
+    for vertical, want in ((0, False), (2, True)):
+        pair = render_pair(scene, rng, 32 * 5 + 7, height_px=31, width_px=60, noise_dn=1.0,
+                           vertical_offset_8ths=vertical)
+        a, b = pair.left[15 - H:15 + H + 1], pair.right[15 - H:15 + H + 1]
+        first_q8 = round(pair.disparity_px * 256)
+        ls = a[:, 40 - H - 2:40 + H + 3].astype(np.float64) @ rf._smoother(2 * H + 5) / 8
+        n = first_q8 >> 8
+        rs = b[:, 40 - H - 2 - n - 4:40 + H + 3 - n + 3] @ rf._banded(rf.kernel_float((first_q8 & 255) / 256),
+                                                                   2 * H + 5) @ rf._smoother(2 * H + 5) / 8
+        noise_var = rf.SMOOTHED_NOISE_GAIN * (1 + 1 / 12)
+        assert rf._mismatched((2 * H + 1) ** 2, rf._sums(ls, rs), noise_var) == want
+        if want:
+            assert rf.refit_q8(a, b, 40, first_q8, 1.0) == rf.refit_q8(a, b, 40, first_q8)
 
 
 def _rms(e: np.ndarray) -> float:
