@@ -22,23 +22,36 @@ only the right image is resampled, so the left one keeps its noise unfiltered.
 
 Interpolator: 8-tap Kaiser-windowed sinc (beta 6, half-width 4), as video codecs do it:
 `taps_q14()[p]` holds the taps for the phase p/256, each row summing to exactly 2^14 (an
-offset stays an offset). Beta and length were chosen on the tuning seeds (tools/bench-core
---sections study): a flatter passband (beta 4-5) is better on smooth texture and worse on the
-aliased "sharp" condition; beta 6 gains on both; longer kernels lose on aliased texture.
+offset stays an offset). Beta and length were chosen on the tuning seeds (5000+) during
+development: a flatter passband (beta 4-5) was better on smooth texture and worse on the
+aliased "sharp" condition, beta 6 better than the six passes on both, 10-12 taps worse on
+aliased texture.
 
-Integer form: Rs = right band x the banded tap matrix (Q14, exact in float64), rounded once to
-Q8 DN (|Rs| < 2^17); every window sum (S1, S2 of each window, the cross sums) is one entry sum
-of the Gram matrix of [L | Rs | 1], exact integers below 2^53 (N S2 < 2^50). Per fit, the N-scaled
-energies E(k) = N S2 - S1^2 and cross terms X(k) = N sum T C - S1_T S1_C are Python ints; the
-first and second differences of y = log2 E - 2 log2 X are the logs of two exact Q40 quotients
-(`_fit_q`, table log2 of `fixedpoint`, Q24), one division to Q10 per fit, and
-s + (rL - rR) / 2 is formed in Q11 and rounded once to Q8. Float reference: the same with
-float taps at the unrounded shift, float sums and math.log2. Difference: 2^-11 (fits) +
-2^-9 (final rounding) + the Q8 rounding of Rs (far below the noise) < 1/256 px; the refit moves
-by a small fraction of a change in s, so the float's unrounded s adds little.
-Needs left columns xl - h - 1 .. xl + h + 1 and right columns xr - h - 5 .. xr + h + 4
-(xr = xl - n); `refit_q8` returns None when the bands do not hold them or a fit has no interior
-minimum.
+Smoothing (lead "(c)" of the CRB work: noise-dependent): what the refit leaves at low noise is
+mostly aliasing (pixels integrate a scene with detail above Nyquist, so no interpolator can
+reproduce the other view exactly), a per-texture error the noise does not average out. Where
+the predicted sigma is small (match.REFIT_SMOOTH_MAX_SIGMA_PX) both views are filtered by
+[1 6 1]/8 before the fits, which weights the aliased band down for a little more noise, unless
+the aligned centre windows differ by more than MISMATCH_FACTOR times what the noise explains
+(a vertical offset between the views, strong aliasing), where smoothing makes it worse
+(`_mismatched`; then the unsmoothed refit). tools/bench-core --sections study has the
+variants (never / always / by sigma only).
+
+Integer form: `_stage_matrix` maps [L band | R band | 1] in one product to [L | Rs | 1]: L as is
+or filtered (Q3), Rs the interpolated (and filtered) right band, Q14 (Q17) taps scaled to Q8 DN
+and rounded once (|Rs| < 2^17, exact in float64). Every window sum (S1, S2 of each window, the
+cross sums) is one entry sum of the Gram matrix of [L | Rs | 1], exact integers below 2^53
+(N S2 < 2^50). Per fit, the N-scaled energies E(k) = N S2 - S1^2 and cross terms
+X(k) = N sum T C - S1_T S1_C are Python ints; the first and second differences of
+y = log2 E - 2 log2 X are the logs of two exact Q40 quotients (`_fit_q`, `fixedpoint`'s log2
+table, Q24), one division to Q10 per fit, and s + (rL - rR) / 2 is formed in Q11 and rounded
+once to Q8. Float reference: float taps at the unrounded shift, float filter, sums and
+math.log2. Difference: 2^-11 (fits) + 2^-9 (final rounding) + the rounding of Rs (far below
+the noise) < 1/256 px; the refit moves by a small fraction of a change in s, so the float's
+unrounded s adds little (tests/edge/core/test_refit.py).
+Needs left columns xl - h - 1 - e .. xl + h + 1 + e and right columns xr - h - 5 - e ..
+xr + h + 4 + e (xr = xl - n, e = 1 with smoothing); `refit_q8` returns None when the bands do
+not hold them or a fit has no interior minimum.
 """
 
 from __future__ import annotations
@@ -96,6 +109,28 @@ def _interp_matrix(p: int, ncols: int, smooth: bool) -> np.ndarray:
     by [1 6 1] in Q17 (ncols' = ncols - 2, from c + 1 - p/256); exact integer entries."""
     m = _banded(taps_q14()[p].astype(np.float64), ncols)
     return m @ _smoother(ncols) if smooth else m
+
+
+@functools.lru_cache(maxsize=1024)
+def _stage_matrix(p: int, ncols: int, smooth: bool) -> np.ndarray:
+    """One matrix for the integer refit's linear stage: [L band (ncols) | R band (ncols + 7) | 1]
+    times it gives [L | Rs | 1], w + 2 columns each, where L is unchanged or filtered by
+    [1 6 1] (Q3) and Rs is the interpolated (and filtered) right band scaled to Q8 DN before
+    rounding: the taps are Q14 (Q17 with the filter) integers times 2^-6 (2^-9), so every
+    entry of the product is exact in float64 (< 2^17 in steps of 2^-9) and `np.rint` rounds it
+    once (to nearest, ties to even)."""
+    e = int(smooth)
+    nout = ncols - 2 * e
+    m = np.zeros((2 * ncols + 2 * HALF_TAPS, 2 * nout + 1))
+    m[:ncols, :nout] = _smoother(ncols) if smooth else np.eye(ncols)
+    m[ncols:-1, nout:-1] = _interp_matrix(p, ncols, smooth) * 2.0 ** -(TAP_BITS + 3 * e - RS_BITS)
+    m[-1, -1] = 1.0
+    return m
+
+
+@functools.cache
+def _ones(rows: int) -> np.ndarray:
+    return np.ones((rows, 1))
 
 
 @functools.cache
@@ -160,15 +195,16 @@ def _fit_q(n_px: int, s1_t: int, s1_c: list, s2_c: list, cross: list) -> int | N
     are logs of two quotients, y(-1) - y(1) = log2(E- X+^2 / (E+ X-^2)) and y(-1) - 2 y(0) + y(1)
     = log2(E- E+ X0^4 / (E0^2 X-^2 X+^2)), each taken as a Q40 quotient (a port needs
     ~200-bit products here, or the six logs of `fixedpoint.log2_q` instead)."""
-    e = [n_px * b - a * a for a, b in zip(s1_c, s2_c, strict=True)]
-    x = [n_px * c - s1_t * a for a, c in zip(s1_c, cross, strict=True)]
-    if min(e) <= 0 or min(x) <= 0:
+    (am, a0, ap), (bm, b0, bp), (cm, c0, cp) = s1_c, s2_c, cross
+    em, e0, ep = n_px * bm - am * am, n_px * b0 - a0 * a0, n_px * bp - ap * ap
+    xm, x0, xp = n_px * cm - s1_t * am, n_px * c0 - s1_t * a0, n_px * cp - s1_t * ap
+    if em <= 0 or e0 <= 0 or ep <= 0 or xm <= 0 or x0 <= 0 or xp <= 0:
         return None
-    (em, e0, ep), (xm, x0, xp) = e, x
-    if not (e0 * xm * xm < em * x0 * x0 and e0 * xp * xp <= ep * x0 * x0):     # y(0) the first minimum
+    xm2, x02, xp2 = xm * xm, x0 * x0, xp * xp
+    if not (e0 * xm2 < em * x02 and e0 * xp2 <= ep * x02):     # y(0) the first minimum
         return None
-    q1 = ((em * xp * xp) << RATIO_BITS) // (ep * xm * xm)
-    q2 = ((em * ep * x0 ** 4) << RATIO_BITS) // (e0 * e0 * xm * xm * xp * xp)
+    q1 = ((em * xp2) << RATIO_BITS) // (ep * xm2)
+    q2 = ((em * ep * x02 * x02) << RATIO_BITS) // (e0 * e0 * xm2 * xp2)
     if not (0 < q1 < 1 << 62 and 1 << RATIO_BITS < q2 < 1 << 62):
         return None
     num = _log2_int(q1) - (RATIO_BITS << LOG_BITS)
@@ -221,11 +257,10 @@ def refit_q8(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_q8: i
         return None
     lo, r_lo = span
     ncols = w + 2 + 2 * e
-    rs = right_band[:, r_lo:r_lo + ncols + 2 * HALF_TAPS - 1] @ _interp_matrix(p, ncols, smooth)  # Q14/Q17
-    shift = TAP_BITS + 3 * e - RS_BITS
-    rs = np.floor((rs + (1 << (shift - 1))) * (1.0 / (1 << shift)))                          # Q8 DN
-    ls = left_band[:, lo:lo + ncols]
-    v = [int(a) for a in _sums(ls @ _smoother(ncols) if smooth else ls, rs)]
+    bands = np.concatenate((left_band[:, lo:lo + ncols], right_band[:, r_lo:r_lo + ncols + 2 * HALF_TAPS - 1],
+                            _ones(w)), axis=1)
+    q = np.rint(bands @ _stage_matrix(p, ncols, smooth))                   # [L (Q0/Q3) | Rs (Q8) | 1]
+    v = (q.T @ q).ravel()[_sum_index(w)].sum(axis=1).astype(np.int64).tolist()     # exact: < 2^53
     n_px = w * w
     if smooth and _mismatched(n_px, v, SMOOTHED_NOISE_GAIN * 64 * (smooth_noise_dn ** 2 + 1 / 12)):
         return refit_q8(left_band, right_band, xl, first_q8)
