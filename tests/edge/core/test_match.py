@@ -101,7 +101,8 @@ def test_integer_within_one_q8_lsb_of_float_reference(cond: Condition, sub: str)
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.integers(0, 2**31), st.integers(0, 31), st.sampled_from(["cancel", "cancel6", "cancel6-gauss", "refit"]))
+@given(st.integers(0, 2**31), st.integers(0, 31),
+       st.sampled_from(["cancel", "cancel6", "cancel6-gauss", "refit"]))
 def test_integer_half_pixel_passes_match_float_on_random_renders(seed: int, k: int, sub: str) -> None:
     rng = np.random.default_rng(seed)
     pair = render_pair(make_scene(rng, 40, 80, "hull"), rng, 32 * 5 + k, height_px=31, width_px=60)
