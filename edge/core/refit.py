@@ -33,7 +33,8 @@ reproduce the other view exactly), a per-texture error the noise does not averag
 the predicted sigma is small (match.REFIT_SMOOTH_MAX_SIGMA_PX) both views are filtered by
 [1 6 1]/8 before the fits, which weights the aliased band down for a little more noise, unless
 the aligned centre windows differ by more than MISMATCH_FACTOR times what the noise explains
-(a vertical offset between the views, strong aliasing), where smoothing makes it worse
+(a vertical offset between the views: 0.25 px trips it, the aliased texture of bench-core's
+"sharp" condition does not), where smoothing makes it worse
 (`_mismatched`; then the unsmoothed refit). tools/bench-core --sections study has the
 variants (never / always / by sigma only).
 
@@ -78,7 +79,7 @@ RS_BITS = 8                       # resampled right band in Q8 DN
 HALF_TAPS = 4                     # 8 taps: j = -4 .. 3
 KAISER_BETA = 6.0
 SMOOTHED_NOISE_GAIN = 38 / 64     # noise variance through [1 6 1]/8
-MISMATCH_FACTOR = 3.0             # smoothing only where the views match to 3x the noise (doc)
+MISMATCH_FACTOR = 8.0             # smoothing only where the views match to 8x the noise (doc)
 _J = np.arange(-HALF_TAPS, HALF_TAPS)
 
 
