@@ -117,10 +117,10 @@ class Diagnoser:
         return measured[0], measured[1]
 
     def probe(self, t_ns: int, track, bridges: dict[int, np.ndarray], images=None,
-              receding: bool = False) -> Probe | None:
+              receding: dict[int, bool] | None = None) -> Probe | None:
         """The track's point against the ship its window sees (bridges: ship id -> truth xyz;
-        images: the pair's raw (left, right), for the outline split; receding: the bridge's range
-        grows)."""
+        images: the pair's raw (left, right), for the outline split; receding: ship id -> the
+        bridge's range grows)."""
         p = track.point
         if p.disparity is None or p.disparity <= 0:
             return None
@@ -137,7 +137,8 @@ class Diagnoser:
         # the point's own ray, or (a window centred on the outline) the nearest ray that hits a ship
         j = int(on[np.argmin(np.hypot(uv[on, 0] - p.u, uv[on, 1] - p.v))])
         ship = hits.ship[j]
-        bridge_xyz = bridges.get(self.sim.ships[ship].ship_id)
+        ship_id = self.sim.ships[ship].ship_id
+        bridge_xyz = bridges.get(ship_id)
         if bridge_xyz is None:
             return None
         share = float(np.mean(hits.ship[1:] == ship))
@@ -155,14 +156,15 @@ class Diagnoser:
             ends = self._outlines(p, ship, posed, images, d_bridge)
         return Probe(r_bridge, part, r_point - r_bridge, raw_px, p.disparity - d_point,
                      r_filtered - r_point, r_filtered - r_bridge, share, p.s.window,
-                     math.nan if p.raw_disparity is None else p.raw_disparity - d_bridge, *ends, receding)
+                     math.nan if p.raw_disparity is None else p.raw_disparity - d_bridge, *ends,
+                     bool(receding and receding.get(ship_id, False)))
 
 
 def diagnose(pipe, diag: Diagnoser, source, truth: dict[int, np.ndarray]) -> tuple[list[Probe], dict]:
     """Run the product pipeline over `source`, probing every T track each pair; truth: ship -> rows."""
     probes, misses = [], defaultdict(int)
     index = {sid: {int(r[0]): r[1:4] for r in rows} for sid, rows in truth.items()}
-    receding = {int(r[0]): bool(g > 0) for rows in truth.values()
+    receding = {(sid, int(r[0])): bool(g > 0) for sid, rows in truth.items() if len(rows) >= 2
                 for r, g in zip(rows, np.gradient(np.hypot(rows[:, 1], rows[:, 3])), strict=True)}
     with source:
         for pair in source:
@@ -171,8 +173,8 @@ def diagnose(pipe, diag: Diagnoser, source, truth: dict[int, np.ndarray]) -> tup
                 if track.status is not TrackStatus.TRACKING:
                     continue
                 bridges = {sid: rows[pair.t_ns] for sid, rows in index.items() if pair.t_ns in rows}
-                probe = diag.probe(pair.t_ns, track, bridges, (pair.left, pair.right),
-                                   receding.get(pair.t_ns, False))
+                going = {sid: receding.get((sid, pair.t_ns), False) for sid in bridges}
+                probe = diag.probe(pair.t_ns, track, bridges, (pair.left, pair.right), going)
                 if probe is None:
                     misses["window off every ship"] += 1
                 else:
