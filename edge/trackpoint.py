@@ -53,7 +53,6 @@ FOLLOW_MARGIN_PX = 5  # the core point tracker's margin beyond window and search
 FOLLOW_MAX_SIGMA_PX = 1.0  # texture the follow needs in x and y (looser than for ranging)
 FOLLOW_FAILURES_TO_SEARCH = 5  # pairs without a sure follow before the point is searched for
 FOLLOW_GATE_PX = 1.5  # a follow this far from the predicted motion jumped to something else
-WIDE_FOLLOW_MAX_PX = 48  # the second, wide follow searches at most this far (px per pair)
 
 
 @dataclass(frozen=True)
@@ -103,7 +102,6 @@ class TrackPoint(PointFilter):
         self.template_reach = 0.0  # px the point may move before the patch is too small
         self.template_age = 0  # pairs since it was taken
         self.last_left: np.ndarray | None = None
-        self.last_left_frame = -1  # the pair last_left is from
         self.searching = False
         self.search_frames = 0
         self.follow_failures = 0  # pairs in a row the core tracker found no sure match
@@ -154,22 +152,18 @@ class TrackPoint(PointFilter):
             if abs(pu - self.template_at[2]) > self.template_reach:
                 self._take_template(self.last_left, rect)  # moved too far for the kept patch
             found = yield self._follow(left, rect, pu)
-            origin, wide = self.template_at[:2], False
-            if not found.valid and (retry := self._wide_follow(left, rect, pu)) is not None:
-                found = yield retry[0]  # the point moved farther than its motion predicts: look wider
-                origin, wide = retry[1], True
             if not found.valid:  # no sure match (flat, ambiguous): carry the point on its motion
                 self.follow_failures += 1
                 self.u = pu
                 if self.follow_failures > FOLLOW_FAILURES_TO_SEARCH:
                     self.searching = True
-            elif self._off_track(found, pu, origin, wide):
+            elif self._off_track(found, pu):
                 self.searching = True
             else:
                 self.follow_failures = 0
                 self.followed = True
                 self.follow_costs.append(found.cost / self.s.window**4)  # ZSSD -> DN^2 per pixel
-                self.u, self.v = found.x_px + origin[0], found.y_px + origin[1]
+                self.u, self.v = found.x_px + self.template_at[0], found.y_px + self.template_at[1]
         if self.searching:
             for u, v in candidates() if candidates is not None else []:
                 if (yield from self._try(u, v, left, right, rect)):
@@ -226,45 +220,17 @@ class TrackPoint(PointFilter):
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
         return follow_request(self.s, self.template, current, tx - x0, ty - y0, pu - tx, FOLLOW_MAX_SIGMA_PX)
 
-    def _wide_follow(self, left: np.ndarray, rect: Rectifier, pu: float) -> tuple[Follow, tuple[int, int]] | None:
-        """A second follow when the first found no sure match: the point's window in the previous
-        pair searched in this one as far as any ship moves across the image in one pair
-        (|u'| <= f v / Z = d v / L_B, at most WIDE_FOLLOW_MAX_PX), and the patch origin.
-
-        Why: the first search spans follow_radius_px around the predicted motion, enough at 10 fps.
-        At 1 fps (photo mode) a young track has no motion yet while a ship at 500 m crosses 30 px
-        per pair, and a turning ship's image motion changes by more than the radius from one pair to
-        the next: the follow failed pair after pair, the point stayed behind and the track was
-        lost (tools/evaluate approach-2048, 0-1 km)."""
-        d = self.disparity if self.disparity is not None else self.raw_disparity
-        if self.last_left is None or self.last_left_frame != self.frame - 1 or d is None or not d > 0 \
-                or self.s.baseline_m <= 0 or len(self.columns) >= 3:
-            return None
-        r = min(WIDE_FOLLOW_MAX_PX, int(math.ceil(d * MAX_SHIP_SPEED_MPS / self.s.baseline_m / self.s.fps)))
-        if r <= self.s.follow_radius_px:
-            return None
-        h, shift = self.s.window // 2, int(round(pu - self.u))
-        ui, vi = int(round(self.u)), int(round(self.v))
-        mx, my = h + r + FOLLOW_MARGIN_PX + abs(shift), h + r + FOLLOW_MARGIN_PX
-        prev = rect.patch(self.last_left, 0, ui - mx, vi - my, 2 * mx + 1, 2 * my + 1)
-        cur = rect.patch(left, 0, ui - mx, vi - my, 2 * mx + 1, 2 * my + 1)
-        request = follow_request(replace(self.s, follow_radius_px=r), prev, cur, self.u - (ui - mx),
-                                 self.v - (vi - my), pu - self.u, FOLLOW_MAX_SIGMA_PX)
-        return request, (ui - mx, vi - my)
-
-    def _off_track(self, found: PointTrack, pu: float, origin: tuple[int, int] | None = None,
-                   wide: bool = False) -> bool:
+    def _off_track(self, found: PointTrack, pu: float) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
-        track's own motion puts it (the match jumped to another object; not asked of a wide
-        follow, which looks there because the motion changed)."""
+        track's own motion puts it (the match jumped to another object)."""
         cost = found.cost / self.s.window**4
         if len(self.follow_costs) >= 5:
             typical = median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
                 return True
-        x0, y0 = self.template_at[:2] if origin is None else origin
+        x0, y0, _, _ = self.template_at
         jump = math.hypot(found.x_px + x0 - pu, found.y_px + y0 - self.v)
-        return not wide and len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
+        return len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
 
     def _take_template(self, left: np.ndarray, rect: Rectifier) -> None:
         """Keep the rectified patch around the point: the core tracker searches it again in later
@@ -281,7 +247,7 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
 
     def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> Steps:
-        self.last_left, self.last_left_frame = left, self.frame
+        self.last_left = left
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
         # straddles the ship's outline); its appearance changes slowly, so refresh it now and then
