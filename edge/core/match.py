@@ -56,8 +56,14 @@ import numpy as np
 from edge.core import subpixel as sp
 from edge.core.costs import COSTS, cost_curve, cost_curve_float, cost_curve_reference, gradient_energy
 from edge.core.fixedpoint import SUBPIX_BITS, from_q
+from edge.core.prefilter import NORM_BOX, xsobel_normalised, xsobel_normalised_float
 
-SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "cancel-oneway", "parabola", "none")
+SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "cancel6-gauss-slant", "cancel-oneway", "parabola",
+                    "none")
+SLANT_PX = 0.15        # cancel6-gauss-slant: raw and normalised-gradient fits disagreeing by more than this
+SLANT_SIGMAS = 3.0     # ... or than this many predicted sigmas (a disagreement beyond noise)
+SLANT_QUICK_MARGIN_PX = 0.05   # the cheap first look (normalised parabola, pixel-locked) is
+                               # trusted to this margin
 IMPLS = ("int", "int-ref", "float")
 DEFAULT_SEARCH_RADIUS = 4
 
@@ -134,11 +140,19 @@ class CostArithmetic:
 
 
 def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int,
-           costs: np.ndarray, k0: int, method: str) -> tuple[float | int | None, str]:
+           costs: np.ndarray, k0: int, method: str, sigma_px: float = 0.0) -> tuple[float | int | None, str]:
     """Sub-pixel disparity around the integer minimum costs[k0] (d0 = d_lo + k0).
 
-    Returns (Q8 int or float px, reason). Cancellation needs d0 - 2 .. d0 + 2 to be searchable."""
+    Returns (Q8 int or float px, reason). Cancellation needs d0 - 2 .. d0 + 2 to be searchable;
+    sigma_px (the predicted sigma) sets the slant check's noise threshold."""
     d0 = d_lo + k0
+    if method == "cancel6-gauss-slant":
+        value, reason = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel6-gauss")
+        if value is None:
+            return value, reason
+        value = _slant_check(arith, a_band, b_band, xa, d_lo, len(costs), k0, value,
+                             max(SLANT_PX, SLANT_SIGMAS * sigma_px))
+        return value, "" if value is not None else "the normalised-gradient match is more than 1 px away"
     if method == "none":
         return (float(d0) if arith.is_float else d0 << SUBPIX_BITS), ""
     if method == "parabola":
@@ -189,6 +203,50 @@ def _gauss6(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: i
     return six(da, db, -ra, -rb, dm, -rm)
 
 
+def _slant_check(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int, n: int,
+                 k0: int, value: float | int, limit_px: float) -> float | int | None:
+    """`value` (the raw six-pass fit, Q8 int or float px), or the same fit on the windows'
+    locally normalised x-Sobel (`prefilter.xsobel_normalised`, computed on the rows of the bands
+    only, around the two windows) where the two differ by more than limit_px.
+
+    Why: the fit measures the disparity averaged over the window with weights ~ Ix^2; where the
+    disparity is constant (a fronto-parallel hull, the renders) every weighting gives the same
+    answer up to noise and the raw one is the most precise, but on a slanted or curved surface
+    a few strong edges pull the raw estimate towards the disparity at those edges. A
+    disagreement beyond noise between two weightings is that case, and the normalised one,
+    whose weights are near uniform, is then the better estimate of the window centre's."""
+    h = a_band.shape[0] // 2
+    m = h + 4 + NORM_BOX // 2    # the passes read +-(h+3) columns; the filter's support is 4
+    width = a_band.shape[1]
+    d_hi = d_lo + n - 1
+    ca, cb = max(0, xa - m), max(0, xa - d_hi - m)
+    prefilter = xsobel_normalised_float if arith.is_float else xsobel_normalised
+    fa = prefilter(a_band[:, ca:min(width, xa + m + 1)])
+    fb = prefilter(b_band[:, cb:min(width, xa - d_lo + m + 1)])
+    xf, lf = xa - ca, d_lo + cb - ca                          # window column and d_lo in the crops
+    costs = arith.curve(fa, fb, xf, lf, lf + n - 1)
+    k = int(np.argmin(costs))
+    d = d_lo + k
+    if abs(k - k0) > 1 or not 0 < k < n - 1 or d + 2 > xa - h or d - 2 < xa + h + 4 - width:
+        return None
+    shift = cb - ca                                           # crop disparity - image disparity
+    quick = arith.fit(costs[k - 1:k + 2], lf + k - 1)         # parabola: a cheap first look
+    quick_px = limit_px - SLANT_QUICK_MARGIN_PX
+    if arith.is_float:
+        if quick is not None and abs(quick - shift - value) <= quick_px:
+            return value
+    elif quick is not None and abs(sp.fit_to_q8(quick) - (shift << SUBPIX_BITS) - int(value)) <= quick_px * 256:
+        return value
+    alt, _ = refine(arith, fa, fb, xf, lf, costs, k, "cancel6-gauss")
+    if alt is None:
+        return value
+    if arith.is_float:
+        alt -= shift
+        return alt if abs(alt - value) > limit_px else value
+    alt = int(alt) - (shift << SUBPIX_BITS)
+    return alt if abs(alt - int(value)) > limit_px * 256 else value
+
+
 def second_best_ratio(costs: np.ndarray, k0: int) -> float:
     """Best local minimum (or curve end) other than k0 and its neighbours, over costs[k0]."""
     c = costs
@@ -223,7 +281,7 @@ def search_range(x_int: int, width: int, window: int, min_disparity: int, max_di
 def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, window: int = 15,
                 max_disparity: int = 128, min_disparity: int = 0,
                 predicted_disparity: float | None = None, search_radius: int | None = None,
-                cost: str = "zssd", subpixel: str = "cancel6-gauss", noise_dn: float = 1.0,
+                cost: str = "zssd", subpixel: str = "cancel6-gauss-slant", noise_dn: float = 1.0,
                 min_ratio: float = 1.1, max_sigma_px: float = 0.3, impl: str = "int") -> Match:
     """Find the right-image match of left point (x, y) along the same row; see the module doc.
 
@@ -299,7 +357,7 @@ def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, 
                                           or d0 + 2 > xi - h or d0 - 2 < xi + h + 4 - width):
         return _invalid("half-pixel passes run off the image (point or match near the border)", xf, yf,
                         **extra)
-    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel)
+    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel, sigma)
     if value is None:
         return _invalid(reason, xf, yf, **extra)
     if arith.is_float:
