@@ -36,9 +36,19 @@ the best cost, and a cost curve that brackets the minimum (den > 0). Failures co
 `valid=False` with a reason, never as an exception; only programming errors (an unknown cost or
 method name) raise ValueError.
 
-Real camera pairs: pass both images through `edge.core.prefilter.xsobel` once per frame
-first; on the Middlebury pair that is what makes this matcher beat OpenCV StereoBM, while on
-clean renders it costs accuracy (tools/bench-core, "real" and "subpixel" sections).
+Real camera pairs: a window fit measures the disparity averaged over the window with weights
+~ Ix^2, so on a slanted or curved surface the raw fit reports the disparity at the window's
+strongest edges, not at its centre (tools/bench-core, real section: on Middlebury the raw
+error correlates 0.83 with that weighted ground truth). Two opt-in remedies, neither the
+default because each costs elsewhere (README, "Known limits"): pass both images through
+`edge.core.prefilter.xsobel` first (beats OpenCV StereoBM there, costs accuracy on renders), or
+subpixel="cancel6-gauss-slant" (`_slant_check`: the same six-pass fit on a locally normalised
+x-Sobel of the window rows, taken where it disagrees with the raw fit beyond noise, and a
+normalised integer search that overrides the raw one when they differ by more than 1 px):
+better than StereoBM on Middlebury (RMS and gross) and identical to the default on the
+bench-core renders, but worse in the pipeline's evaluation (tools/evaluate --subpixel), where a
+ship's strong outline against a background at another range is exactly what the raw weights
+should follow; it also costs ~70 us per call (128 px search).
 
 `impl` picks the arithmetic: "int" (default, exact integers with the fast cross-correlation),
 "int-ref" (the plain int64 definition: bit-identical, slower) or "float" (float64 reference
@@ -152,7 +162,8 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
             return value, reason
         value = _slant_check(arith, a_band, b_band, xa, d_lo, len(costs), k0, value,
                              max(SLANT_PX, SLANT_SIGMAS * sigma_px))
-        return value, "" if value is not None else "the normalised-gradient match is more than 1 px away"
+        return value, "" if value is not None else ("normalised-gradient match at the edge of the search range "
+                                                    "or too near the image border")
     if method == "none":
         return (float(d0) if arith.is_float else d0 << SUBPIX_BITS), ""
     if method == "parabola":
@@ -205,9 +216,14 @@ def _gauss6(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: i
 
 def _slant_check(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int, n: int,
                  k0: int, value: float | int, limit_px: float) -> float | int | None:
-    """`value` (the raw six-pass fit, Q8 int or float px), or the same fit on the windows'
-    locally normalised x-Sobel (`prefilter.xsobel_normalised`, computed on the rows of the bands
-    only, around the two windows) where the two differ by more than limit_px.
+    """`value` (the raw six-pass fit at costs[k0], Q8 int or float px), or the same fit on the
+    windows' locally normalised x-Sobel (`prefilter.xsobel_normalised`, computed on the rows of
+    the bands only, around the left window and the searched right columns) where the two differ
+    by more than limit_px, or where the integer minimum of the normalised cost over the same n
+    disparities from d_lo is more than 1 px from the raw one (then the raw search most likely
+    locked on a repeated or strong structure; StereoBM's prefilter is there for the same
+    reason). None (invalid) if the normalised minimum is at the range's edge or its half-pixel
+    passes would leave the image.
 
     Why: the fit measures the disparity averaged over the window with weights ~ Ix^2; where the
     disparity is constant (a fronto-parallel hull, the renders) every weighting gives the same
@@ -227,8 +243,10 @@ def _slant_check(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, 
     costs = arith.curve(fa, fb, xf, lf, lf + n - 1)
     k = int(np.argmin(costs))
     d = d_lo + k
-    if abs(k - k0) > 1 or not 0 < k < n - 1 or d + 2 > xa - h or d - 2 < xa + h + 4 - width:
+    if not 0 < k < n - 1 or d + 2 > xa - h or d - 2 < xa + h + 4 - width:
         return None
+    if abs(k - k0) > 1:                  # the integer searches disagree: trust the normalised one
+        limit_px = 0.0
     shift = cb - ca                                           # crop disparity - image disparity
     quick = arith.fit(costs[k - 1:k + 2], lf + k - 1)         # parabola: a cheap first look
     quick_px = limit_px - SLANT_QUICK_MARGIN_PX
@@ -281,7 +299,7 @@ def search_range(x_int: int, width: int, window: int, min_disparity: int, max_di
 def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, window: int = 15,
                 max_disparity: int = 128, min_disparity: int = 0,
                 predicted_disparity: float | None = None, search_radius: int | None = None,
-                cost: str = "zssd", subpixel: str = "cancel6-gauss-slant", noise_dn: float = 1.0,
+                cost: str = "zssd", subpixel: str = "cancel6-gauss", noise_dn: float = 1.0,
                 min_ratio: float = 1.1, max_sigma_px: float = 0.3, impl: str = "int") -> Match:
     """Find the right-image match of left point (x, y) along the same row; see the module doc.
 
