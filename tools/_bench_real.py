@@ -62,6 +62,7 @@ def evaluate(pair: RealPair, pts: list[tuple[int, int, float]]) -> dict[str, np.
     bm = stereo_bm(pair)
     pre_l, pre_r = xsobel(pair.left), xsobel(pair.right)
     norm_l, norm_r = xsobel_normalised(pair.left), xsobel_normalised(pair.right)
+    caps = {cap: (xsobel(pair.left, cap), xsobel(pair.right, cap)) for cap in (31, 63, 127)}
     methods = {
         "SSD+parabola (thesis)": (pair.left, pair.right, {"cost": "ssd", "subpixel": "parabola"}),
         "ZSSD+cancel (raw)": (pair.left, pair.right, {"subpixel": "cancel"}),
@@ -69,6 +70,9 @@ def evaluate(pair: RealPair, pts: list[tuple[int, int, float]]) -> dict[str, np.
         "xsobel15 + ZSSD+cancel": (pre_l, pre_r, {"subpixel": "cancel"}),
         "ZSSD+cancel6-gauss (raw, default)": (pair.left, pair.right, {"subpixel": "cancel6-gauss"}),
         "xsobel15 + ZSSD+cancel6-gauss": (pre_l, pre_r, {"subpixel": "cancel6-gauss"}),
+        "xsobel31 + ZSSD+cancel6-gauss": (*caps[31], {"subpixel": "cancel6-gauss"}),
+        "xsobel63 + ZSSD+cancel6-gauss": (*caps[63], {"subpixel": "cancel6-gauss"}),
+        "xsobel127 + ZSSD+cancel6-gauss": (*caps[127], {"subpixel": "cancel6-gauss"}),
         "normalised x-Sobel + ZSSD+cancel6-gauss": (norm_l, norm_r, {"subpixel": "cancel6-gauss"}),
         "ZSSD+cancel6-gauss-slant (opt-in)": (pair.left, pair.right, {"subpixel": "cancel6-gauss-slant"}),
     }
