@@ -122,8 +122,8 @@ def attribution(pair: RealPair, pts: list[tuple[int, int, float]], errors: dict[
             offset.append(float((w * gt).sum() / max(w.sum(), 1e-9)))
         e, o = errors[name], np.array(offset)
         ok = sel & np.isfinite(e) & (np.abs(np.nan_to_num(e)) <= 1.0)
-        rms = lambda v: f"{np.sqrt(np.mean(v[ok] ** 2)):.3f}"    # noqa: E731
-        rows.append([name, rms(e), rms(o), f"{np.corrcoef(e[ok], o[ok])[0, 1]:.2f}", rms(e - o)])
+        rms = [f"{np.sqrt(np.mean(v[ok] ** 2)):.3f}" for v in (e, o, e - o)]
+        rows.append([name, rms[0], rms[1], f"{np.corrcoef(e[ok], o[ok])[0, 1]:.2f}", rms[2]])
     return rows
 
 
@@ -149,8 +149,8 @@ def section_real(args: argparse.Namespace, out: list[str]) -> None:
                        ("near fronto-parallel (spread <= 1 px)", spread <= 1.0)):
         out.append(f"\n{label}")
         out.append(table(headers, summary(errors, sel)))
-    out.append("\nwhere the error comes from (all points, gross excluded): e vs the ground truth averaged over the "
-               "window with the method's weights (x-gradient^2 of its image) minus the centre's")
+    out.append("\nwhere the error comes from (all points, gross excluded): e vs the ground truth averaged "
+               "over the window with the method's weights (x-gradient^2 of its image) minus the centre's")
     out.append(table(["method", "RMS e", "RMS offset", "corr", "RMS e - offset"],
                      attribution(pair, pts, errors, spread <= MAX_SPREAD_PX)))
     out.append("")

@@ -162,8 +162,9 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
             return value, reason
         value = _slant_check(arith, a_band, b_band, xa, d_lo, len(costs), k0, value,
                              max(SLANT_PX, SLANT_SIGMAS * sigma_px))
-        return value, "" if value is not None else ("normalised-gradient match at the edge of the search range "
-                                                    "or too near the image border")
+        if value is None:
+            return None, "normalised-gradient match at the edge of the search range or too near the border"
+        return value, ""
     if method == "none":
         return (float(d0) if arith.is_float else d0 << SUBPIX_BITS), ""
     if method == "parabola":
@@ -253,7 +254,8 @@ def _slant_check(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, 
     if arith.is_float:
         if quick is not None and abs(quick - shift - value) <= quick_px:
             return value
-    elif quick is not None and abs(sp.fit_to_q8(quick) - (shift << SUBPIX_BITS) - int(value)) <= quick_px * 256:
+    elif quick is not None and (abs(sp.fit_to_q8(quick) - (shift << SUBPIX_BITS) - int(value))
+                                <= quick_px * 256):
         return value
     alt, _ = refine(arith, fa, fb, xf, lf, costs, k, "cancel6-gauss")
     if alt is None:
