@@ -74,7 +74,6 @@ def evaluate(pair: RealPair, pts: list[tuple[int, int, float]]) -> dict[str, np.
         "xsobel63 + ZSSD+cancel6-gauss": (*caps[63], {"subpixel": "cancel6-gauss"}),
         "xsobel127 + ZSSD+cancel6-gauss": (*caps[127], {"subpixel": "cancel6-gauss"}),
         "normalised x-Sobel + ZSSD+cancel6-gauss": (norm_l, norm_r, {"subpixel": "cancel6-gauss"}),
-        "ZSSD+cancel6-gauss-slant (opt-in)": (pair.left, pair.right, {"subpixel": "cancel6-gauss-slant"}),
     }
     truth = np.array([pair.truth[y, x] for x, y, _ in pts])
     errors = {"OpenCV StereoBM (1/16 px)": np.array([bm[y, x] for x, y, _ in pts]) - truth}

@@ -39,16 +39,14 @@ method name) raise ValueError.
 Real camera pairs: a window fit measures the disparity averaged over the window with weights
 ~ Ix^2, so on a slanted or curved surface the raw fit reports the disparity at the window's
 strongest edges, not at its centre (tools/bench-core, real section: on Middlebury the raw
-error correlates 0.83 with that weighted ground truth). Two opt-in remedies, neither the
-default because each costs elsewhere (README, "Known limits"): pass both images through
-`edge.core.prefilter.xsobel` first (beats OpenCV StereoBM there, costs accuracy on renders), or
-subpixel="cancel6-gauss-slant" (`_slant_check`: the same six-pass fit on a locally normalised
-x-Sobel of the window rows, taken where it disagrees with the raw fit beyond noise, and a
-normalised integer search that overrides the raw one when they differ by more than 1 px):
-better than StereoBM on Middlebury (RMS and gross) and identical to the default on the
-bench-core renders, but worse in the pipeline's evaluation (tools/evaluate --subpixel), where a
-ship's strong outline against a background at another range is exactly what the raw weights
-should follow; it also costs ~70 us per call (128 px search).
+error correlates 0.83 with that weighted ground truth). Passing both images through
+`edge.core.prefilter.xsobel` (or `xsobel_normalised`) first evens the weights: that beats OpenCV
+StereoBM on Middlebury but costs accuracy on renders, so it is opt-in (README, "Known limits").
+A check that swapped in the normalised fit only where the two disagree beyond noise was measured
+(commit 7af22db) and dropped: better than StereoBM on Middlebury, unchanged on renders, but worse
+in the pipeline (a ship's outline against sky or sea at another range is what the raw weights
+should follow), slower than the 100 us budget, and its integer and float paths could branch
+apart.
 
 `impl` picks the arithmetic: "int" (default, exact integers with the fast cross-correlation),
 "int-ref" (the plain int64 definition: bit-identical, slower) or "float" (float64 reference
@@ -66,14 +64,8 @@ import numpy as np
 from edge.core import subpixel as sp
 from edge.core.costs import COSTS, cost_curve, cost_curve_float, cost_curve_reference, gradient_energy
 from edge.core.fixedpoint import SUBPIX_BITS, from_q
-from edge.core.prefilter import NORM_BOX, xsobel_normalised, xsobel_normalised_float
 
-SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "cancel6-gauss-slant", "cancel-oneway", "parabola",
-                    "none")
-SLANT_PX = 0.15        # cancel6-gauss-slant: raw and normalised-gradient fits disagreeing by more than this
-SLANT_SIGMAS = 3.0     # ... or than this many predicted sigmas (a disagreement beyond noise)
-SLANT_QUICK_MARGIN_PX = 0.05   # the cheap first look (normalised parabola, pixel-locked) is
-                               # trusted to this margin
+SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "cancel-oneway", "parabola", "none")
 IMPLS = ("int", "int-ref", "float")
 DEFAULT_SEARCH_RADIUS = 4
 
@@ -150,21 +142,11 @@ class CostArithmetic:
 
 
 def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int,
-           costs: np.ndarray, k0: int, method: str, sigma_px: float = 0.0) -> tuple[float | int | None, str]:
+           costs: np.ndarray, k0: int, method: str) -> tuple[float | int | None, str]:
     """Sub-pixel disparity around the integer minimum costs[k0] (d0 = d_lo + k0).
 
-    Returns (Q8 int or float px, reason). Cancellation needs d0 - 2 .. d0 + 2 to be searchable;
-    sigma_px (the predicted sigma) sets the slant check's noise threshold."""
+    Returns (Q8 int or float px, reason). Cancellation needs d0 - 2 .. d0 + 2 to be searchable."""
     d0 = d_lo + k0
-    if method == "cancel6-gauss-slant":
-        value, reason = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel6-gauss")
-        if value is None:
-            return value, reason
-        value = _slant_check(arith, a_band, b_band, xa, d_lo, len(costs), k0, value,
-                             max(SLANT_PX, SLANT_SIGMAS * sigma_px))
-        if value is None:
-            return None, "normalised-gradient match at the edge of the search range or too near the border"
-        return value, ""
     if method == "none":
         return (float(d0) if arith.is_float else d0 << SUBPIX_BITS), ""
     if method == "parabola":
@@ -213,58 +195,6 @@ def _gauss6(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: i
     da, db, ra, rb, dm, rm = fits
     six = sp.symmetric6_float if arith.is_float else sp.symmetric6_q8
     return six(da, db, -ra, -rb, dm, -rm)
-
-
-def _slant_check(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int, n: int,
-                 k0: int, value: float | int, limit_px: float) -> float | int | None:
-    """`value` (the raw six-pass fit at costs[k0], Q8 int or float px), or the same fit on the
-    windows' locally normalised x-Sobel (`prefilter.xsobel_normalised`, computed on the rows of
-    the bands only, around the left window and the searched right columns) where the two differ
-    by more than limit_px, or where the integer minimum of the normalised cost over the same n
-    disparities from d_lo is more than 1 px from the raw one (then the raw search most likely
-    locked on a repeated or strong structure; StereoBM's prefilter is there for the same
-    reason). None (invalid) if the normalised minimum is at the range's edge or its half-pixel
-    passes would leave the image.
-
-    Why: the fit measures the disparity averaged over the window with weights ~ Ix^2; where the
-    disparity is constant (a fronto-parallel hull, the renders) every weighting gives the same
-    answer up to noise and the raw one is the most precise, but on a slanted or curved surface
-    a few strong edges pull the raw estimate towards the disparity at those edges. A
-    disagreement beyond noise between two weightings is that case, and the normalised one,
-    whose weights are near uniform, is then the better estimate of the window centre's."""
-    h = a_band.shape[0] // 2
-    m = h + 4 + NORM_BOX // 2    # the passes read +-(h+3) columns; the filter's support is 4
-    width = a_band.shape[1]
-    d_hi = d_lo + n - 1
-    ca, cb = max(0, xa - m), max(0, xa - d_hi - m)
-    prefilter = xsobel_normalised_float if arith.is_float else xsobel_normalised
-    fa = prefilter(a_band[:, ca:min(width, xa + m + 1)])
-    fb = prefilter(b_band[:, cb:min(width, xa - d_lo + m + 1)])
-    xf, lf = xa - ca, d_lo + cb - ca                          # window column and d_lo in the crops
-    costs = arith.curve(fa, fb, xf, lf, lf + n - 1)
-    k = int(np.argmin(costs))
-    d = d_lo + k
-    if not 0 < k < n - 1 or d + 2 > xa - h or d - 2 < xa + h + 4 - width:
-        return None
-    if abs(k - k0) > 1:                  # the integer searches disagree: trust the normalised one
-        limit_px = 0.0
-    shift = cb - ca                                           # crop disparity - image disparity
-    quick = arith.fit(costs[k - 1:k + 2], lf + k - 1)         # parabola: a cheap first look
-    quick_px = limit_px - SLANT_QUICK_MARGIN_PX
-    if arith.is_float:
-        if quick is not None and abs(quick - shift - value) <= quick_px:
-            return value
-    elif quick is not None and (abs(sp.fit_to_q8(quick) - (shift << SUBPIX_BITS) - int(value))
-                                <= quick_px * 256):
-        return value
-    alt, _ = refine(arith, fa, fb, xf, lf, costs, k, "cancel6-gauss")
-    if alt is None:
-        return value
-    if arith.is_float:
-        alt -= shift
-        return alt if abs(alt - value) > limit_px else value
-    alt = int(alt) - (shift << SUBPIX_BITS)
-    return alt if abs(alt - int(value)) > limit_px * 256 else value
 
 
 def second_best_ratio(costs: np.ndarray, k0: int) -> float:
@@ -377,7 +307,7 @@ def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, 
                                           or d0 + 2 > xi - h or d0 - 2 < xi + h + 4 - width):
         return _invalid("half-pixel passes run off the image (point or match near the border)", xf, yf,
                         **extra)
-    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel, sigma)
+    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel)
     if value is None:
         return _invalid(reason, xf, yf, **extra)
     if arith.is_float:
