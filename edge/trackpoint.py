@@ -32,7 +32,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from edge.anchor import line_fit, median
+from edge.anchor import line_fit, median, slope_sigma
 from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
@@ -43,6 +43,8 @@ from edge.ranging import Designs
 SUBPIXELS = ("cancel6-gauss", "cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
 COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
+REFIT_COLUMNS = 5  # follows in the column line before its slope's sigma is trusted
+COLUMN_NOISE_PX = 0.05  # the least scatter a follow's column is credited with (its slope's sigma)
 REJECTS_TO_SEARCH = 5  # valid matches in a row that the filter's gate refuses: the point is on something else
 OCCLUSION_COST_FACTOR = 4.0  # a follow this much worse than the track's typical one: something in front
 OCCLUSION_COST_FLOOR = 20.0  # DN^2 per pixel, so a near-perfect typical match does not trip on noise
@@ -110,6 +112,7 @@ class TrackPoint(PointFilter):
         self.rejects = 0
         self.u_filtered: float | None = None
         self.u_rate_pxps = 0.0
+        self.u_rate_sigma_pxps = math.inf  # 1-sigma of u_rate_pxps (inf: no line fitted yet)
         self.follow_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # SSD per pixel of good follows
         self.match_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # matcher costs of clean matches
         self.columns: deque[tuple[int, float]] = deque(maxlen=max(3, int(round(COLUMN_FIT_S * settings.fps))))
@@ -121,7 +124,7 @@ class TrackPoint(PointFilter):
         self.searching, self.search_frames, self.rejects = False, 0, 0
         self.follow_costs.clear()
         self.match_costs.clear()
-        self.columns.clear()
+        self._restart_columns()
         self._reset_filters()
 
     # ------------------------------------------------------------ per pair
@@ -193,7 +196,7 @@ class TrackPoint(PointFilter):
         self.u, self.v = u, v
         self.searching, self.search_frames, self.rejects, self.follow_failures = False, 0, 0, 0
         self.follow_costs.clear()
-        self.columns.clear()  # another point of the ship: keep the rate, restart the line fit
+        self._restart_columns()  # another point of the ship: keep the rate, restart the line fit
         self._take_template(left, rect)
         self.match = m
         self._filter(m.disparity_px if m.valid else None)
@@ -283,9 +286,12 @@ class TrackPoint(PointFilter):
         return cost > MIXED_COST_FACTOR * typical + MIXED_COST_FLOOR_DN2 * n2
 
     def _fit_column(self) -> None:
-        """Least-squares line through the recent (frame, column) follows: smoothed u and its rate."""
+        """Least-squares line through the recent (frame, column) follows: smoothed u, its rate and the
+        rate's 1-sigma, which stays unknown until the line has REFIT_COLUMNS follows (three follows
+        a jump landed in can read as tens of knots, and their scatter says little)."""
         self.columns.append((self.frame, self.u))
-        if len(self.columns) < 3:
+        n = len(self.columns)
+        if n < 3:
             return
         intercept, slope = line_fit(self.columns)
         rate = slope * self.s.fps
@@ -293,6 +299,13 @@ class TrackPoint(PointFilter):
             limit = self.disparity * MAX_SHIP_SPEED_MPS / self.s.baseline_m  # |u'| <= f v / Z = d v / L_B
             rate = min(max(rate, -limit), limit)
         self.u_filtered, self.u_rate_pxps = float(intercept), rate
+        self.u_rate_sigma_pxps = math.inf if n < REFIT_COLUMNS else \
+            slope_sigma(self.columns, intercept, slope, COLUMN_NOISE_PX) * self.s.fps
+
+    def _restart_columns(self) -> None:
+        """A new point of the ship: a new column line; the rate is kept, its sigma is not known."""
+        self.columns.clear()
+        self.u_rate_sigma_pxps = math.inf
 
     def match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
                  pred: float | None) -> Match:
