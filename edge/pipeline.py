@@ -184,7 +184,7 @@ class Pipeline:
         lat, lon, _ = world_to_latlon(world, self.site)
         # world velocity from d' and u': Z = fB/d, X = B (u - cx) / d - B / 2
         d_rate = np.array([t.point.rate_pxps for t in live])
-        u_rate = np.array([t.point.u_rate_pxps for t in live])
+        u_rate = np.array([t.point.u_rate_known_pxps for t in live])
         vz = -f * b * d_rate / d**2
         vx = b * u_rate / d - b * (u - self.rect.cx) * d_rate / d**2
         # the 1-sigma of Z' = -f B d' / d^2 and of X' from the filters' rate sigmas (inf: not known,

@@ -42,19 +42,20 @@ def test_point_follows_a_moving_ship_and_measures_its_disparity() -> None:
     assert point.sigma_px < 0.1 and math.isfinite(point.sigma_px)
     # the image motion's sigma is known and holds the rate's error (the lateral speed's gate)
     assert 0 < point.u_rate_sigma_pxps < 0.5
-    assert abs(point.u_rate_pxps - speed * 10.0) <= 4 * point.u_rate_sigma_pxps
-    # a move to another point of the ship: the rate is kept, its sigma unknown until REFIT_COLUMNS follows
-    rate = point.u_rate_pxps
+    assert abs(point.u_rate_known_pxps - speed * 10.0) <= 4 * point.u_rate_sigma_pxps
+    # a move to another point of the ship: the speed keeps the old line's rate and sigma until the
+    # new line has REFIT_COLUMNS follows
+    known = point.u_rate_known_pxps, point.u_rate_sigma_pxps
     point.reanchor(point.u + 20.0, point.v)
-    assert point.u_rate_pxps == rate and math.isinf(point.u_rate_sigma_pxps)
-    sigmas = []
+    seen = []
     for k in range(40, 52):
         left = shifted_u8(tex, speed * k)[:, 20:W + 20]
         right = shifted_u8(tex, speed * k - d_true)[:, 20:W + 20]
         assert point.step(left, right, rect)
-        sigmas.append((len(point.columns), point.u_rate_sigma_pxps))
-    assert all(math.isinf(sd) for n, sd in sigmas if n < REFIT_COLUMNS)
-    assert all(0 < sd < 0.5 for n, sd in sigmas if n >= REFIT_COLUMNS) and sigmas[-1][0] >= REFIT_COLUMNS
+        seen.append((len(point.columns), (point.u_rate_known_pxps, point.u_rate_sigma_pxps)))
+    assert all(m == known for n, m in seen if n < REFIT_COLUMNS)
+    assert all(m != known and 0 < m[1] < 0.5 for n, m in seen if n >= REFIT_COLUMNS)
+    assert seen[-1][0] >= REFIT_COLUMNS
 
 
 def test_point_refuses_a_jump_to_another_range_and_searches() -> None:
