@@ -15,9 +15,11 @@ counted as skipped pairs and the filters coast through them.
 
 Speed and course come from the filtered rates (Z' = -f B d' / d^2, X' from u'); they are left
 unknown (None: empty in TTM, the "unknown" value on Modbus) until the disparity filter has run
-MOTION_AFTER_S and while the range rate's 1-sigma (from the Kalman's P_vv) exceeds
-MAX_SOG_SIGMA_KN: a small far ship's rate is known to tens of knots only, and a ghost speed
-misleads a VTS operator more than an empty field.
+MOTION_AFTER_S and while the speed's 1-sigma exceeds MAX_SOG_SIGMA_KN. That sigma comes from the
+range rate's (the Kalman's P_vv) and the image motion's (the column line's slope error); a small
+far ship's rate is known to tens of knots only, a few follows after the point moved on the hull
+give the image motion no better, and a ghost speed misleads a VTS operator more than an empty
+field. The Butterworth filter gives no rate sigma, so with it the speed stays unknown.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from edge.trackpoint import FILTERS, SUBPIXELS, PointSettings
 log = logging.getLogger(__name__)
 
 MOTION_AFTER_S = 2.0  # SOG/COG are reported once the disparity filter has run this long
-MAX_SOG_SIGMA_KN = 5.0  # ... and once the range rate it rests on is known to this (1-sigma)
+MAX_SOG_SIGMA_KN = 5.0  # ... and while the speed is known to this (1-sigma)
 MAX_DETECT_INTERVAL_S = 0.5  # slow cameras detect more often than every k-th pair (1 fps: every pair)
 MIN_COURSE_KN = 0.5  # below this speed the course is unknown (None)
 
@@ -182,19 +184,23 @@ class Pipeline:
         lat, lon, _ = world_to_latlon(world, self.site)
         # world velocity from d' and u': Z = fB/d, X = B (u - cx) / d - B / 2
         d_rate = np.array([t.point.rate_pxps for t in live])
-        u_rate = np.array([t.point.u_rate_pxps for t in live])
+        u_rate = np.array([t.point.u_rate_known_pxps for t in live])
         vz = -f * b * d_rate / d**2
-        # Z' = -f B d' / d^2: its 1-sigma from the filter's rate sigma (a far, noisy track's speed
-        # would otherwise be read as tens of knots; withheld instead, as TTM/Modbus allow)
-        rate_sd = np.array([t.point.rate_sigma_pxps if t.point.rate_sigma_pxps is not None else 0.0
-                            for t in live])
-        vz_sigma_kn = f * b * rate_sd / d**2 / KNOT_MPS
         vx = b * u_rate / d - b * (u - self.rect.cx) * d_rate / d**2
+        # the 1-sigma of Z' = -f B d' / d^2 and of X' from the filters' rate sigmas (inf: not known,
+        # as with the Butterworth filter): a far, noisy track's speed, or the image motion's right
+        # after a jump, would be read as tens of knots; withheld instead, as TTM/Modbus allow
+        d_rate_sd = np.array([_known_or_inf(t.point.rate_sigma_pxps) for t in live])
+        u_rate_sd = np.array([t.point.u_rate_sigma_pxps for t in live])
+        with np.errstate(invalid="ignore"):  # inf x 0 on the optical axis: nan, which is not <= a bound
+            vz_sd = f * b * d_rate_sd / d**2
+            vx_sd = np.hypot(b * u_rate_sd / d, b * (u - self.rect.cx) * d_rate_sd / d**2)
+            sog_sigma_kn = np.hypot(vx_sd, vz_sd) / KNOT_MPS
         sog, cog = speed_course(np.stack([vx, np.zeros_like(vx), vz], -1), lat, lon, self.site)
         fixes = []
         for i, t in enumerate(live):
             moving = (self.point_settings.filter != "none" and t.point.updates >= MOTION_AFTER_S * self.fps
-                      and vz_sigma_kn[i] <= MAX_SOG_SIGMA_KN)
+                      and sog_sigma_kn[i] <= MAX_SOG_SIGMA_KN)
             box = t.box
             fixes.append(ShipFix(
                 t_ns=t_ns + self.utc_offset_ns, track_id=t.id, status=t.status,
@@ -211,6 +217,10 @@ class Pipeline:
         if key not in self._logged:
             self._logged.add(key)
             log.warning(msg, *args)
+
+
+def _known_or_inf(value: float | None) -> float:
+    return math.inf if value is None else value
 
 
 def stage_pipelines(calibration: Calibration, config: PipelineConfig | None = None, *, fps: float = 10.0,

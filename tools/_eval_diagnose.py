@@ -15,6 +15,17 @@ disparity's error d_raw - d_point (b: matcher noise, outliers, windows mixing sh
 background) and what the filter does with it, d_filtered - d_point (c: smoothing, lag). Also
 per fix: the share of the 15x15 window's rays that hit the same ship (a window mostly on sea or
 sky measures their disparity) and the part of the ship hit (hull, decks, bridge ...).
+
+Outline split (a small ship the window spans, the far-ship case of edge.anchor.ship_window): in
+the point's row, the ship's left and right outlines (its leftmost and rightmost columns within a
+window of the point, from the same ray cast) are matched alone with an OUTLINE_WINDOW window and
+the product's matcher settings; the table gives their mean disparity minus the bridge's true
+disparity ("L/R"), for approaching and receding ships apart (the sign of the bridge's true range
+rate). Seen bow- or stern-on, one outline is the corner of the face towards the rig and the
+other the far end of the side the rig sees (up to a ship length farther); a window spanning both
+measures a disparity between the two. (Which outline is which cannot be told from a ray through
+the outline pixel's centre: the side is often narrower than a pixel.) Also per fix the track's
+window side and the raw disparity against the bridge's own disparity.
 """
 
 from __future__ import annotations
@@ -26,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from edge.core.match import match_point
 from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
 from edge.schema import load_yaml
@@ -34,6 +46,7 @@ from edge.sim.scenario import scenario_from_dict, scenario_path
 from edge.sim.simulator import Simulation
 
 BINS_M = ((0, 1000), (1000, 2000), (2000, 3000), (3000, 4000), (4000, 5000))
+OUTLINE_WINDOW = 9  # px: the window matched on one outline alone (narrower than the far ships)
 
 
 @dataclass
@@ -48,6 +61,11 @@ class Probe:
     filtered_m: float  # R(d_filtered) - R_point
     total_m: float  # R(d_filtered) - R_bridge, along the line of sight of the point
     ship_share: float  # share of the window's rays that hit the ship
+    window: int = 0  # the track's window side, px
+    raw_bridge_px: float = math.nan  # d_raw - the bridge's true disparity
+    left_px: float = math.nan  # the ship's left outline matched alone - d_bridge
+    right_px: float = math.nan  # the ship's right outline matched alone - d_bridge
+    receding: bool = False  # the bridge's true range grows
 
 
 class Diagnoser:
@@ -75,8 +93,34 @@ class Diagnoser:
         ur = self.rect.raw_to_rect(self.right.project(world), 1)
         return ul[:, 0] - ur[:, 0]
 
-    def probe(self, t_ns: int, track, bridges: dict[int, np.ndarray]) -> Probe | None:
-        """The track's point against the ship its window sees (bridges: ship id -> truth xyz)."""
+    def _outlines(self, p, ship: int, posed, images, d_bridge: float) -> tuple[float, float]:
+        """The left and right outline's disparity - d_bridge in the point's row (nan: the ship is
+        wider than two windows there, or the outline does not match)."""
+        w = p.s.window
+        xs = np.arange(round(p.u) - w, round(p.u) + w + 1, dtype=np.float64)
+        raw = self.rect.rect_to_raw(np.stack([xs, np.full_like(xs, round(p.v))], -1), 0)
+        dirs = self.left.dirs(raw[:, 0], raw[:, 1])
+        hits = cast(self.left.origin, dirs, posed)
+        on = np.flatnonzero(hits.ship == ship)
+        if on.size < 2 or on[0] == 0 or on[-1] == xs.size - 1:
+            return math.nan, math.nan
+        measured = []
+        for k in (on[0], on[-1]):
+            h, d_hi = OUTLINE_WINDOW // 2, int(math.ceil(d_bridge)) + 8
+            x0, y0 = int(xs[k]) - h - d_hi - 4, int(round(p.v)) - h
+            lp, rp = (self.rect.patch(img, side, x0, y0, 2 * h + d_hi + 9, OUTLINE_WINDOW)
+                      for side, img in enumerate(images))
+            m = match_point(lp, rp, xs[k] - x0, h, window=OUTLINE_WINDOW, max_disparity=d_hi,
+                            predicted_disparity=d_bridge, search_radius=4, cost=p.s.cost,
+                            subpixel=p.s.subpixel, noise_dn=p.s.noise_dn, max_sigma_px=2.0)
+            measured.append(m.disparity_px - d_bridge if m.valid else math.nan)
+        return measured[0], measured[1]
+
+    def probe(self, t_ns: int, track, bridges: dict[int, np.ndarray], images=None,
+              receding: dict[int, bool] | None = None) -> Probe | None:
+        """The track's point against the ship its window sees (bridges: ship id -> truth xyz;
+        images: the pair's raw (left, right), for the outline split; receding: ship id -> the
+        bridge's range grows)."""
         p = track.point
         if p.disparity is None or p.disparity <= 0:
             return None
@@ -93,7 +137,8 @@ class Diagnoser:
         # the point's own ray, or (a window centred on the outline) the nearest ray that hits a ship
         j = int(on[np.argmin(np.hypot(uv[on, 0] - p.u, uv[on, 1] - p.v))])
         ship = hits.ship[j]
-        bridge_xyz = bridges.get(self.sim.ships[ship].ship_id)
+        ship_id = self.sim.ships[ship].ship_id
+        bridge_xyz = bridges.get(ship_id)
         if bridge_xyz is None:
             return None
         share = float(np.mean(hits.ship[1:] == ship))
@@ -105,14 +150,22 @@ class Diagnoser:
         # ranges along the point's own line of sight: Z scales with 1/d, horizontal range with Z
         r_filtered = r_point * d_point / p.disparity
         raw_px = math.nan if p.raw_disparity is None else p.raw_disparity - d_point
+        d_bridge = float(self._disparity(bridge_xyz[None])[0])
+        ends = (math.nan, math.nan)
+        if images is not None:
+            ends = self._outlines(p, ship, posed, images, d_bridge)
         return Probe(r_bridge, part, r_point - r_bridge, raw_px, p.disparity - d_point,
-                     r_filtered - r_point, r_filtered - r_bridge, share)
+                     r_filtered - r_point, r_filtered - r_bridge, share, p.s.window,
+                     math.nan if p.raw_disparity is None else p.raw_disparity - d_bridge, *ends,
+                     bool(receding and receding.get(ship_id, False)))
 
 
 def diagnose(pipe, diag: Diagnoser, source, truth: dict[int, np.ndarray]) -> tuple[list[Probe], dict]:
     """Run the product pipeline over `source`, probing every T track each pair; truth: ship -> rows."""
     probes, misses = [], defaultdict(int)
     index = {sid: {int(r[0]): r[1:4] for r in rows} for sid, rows in truth.items()}
+    receding = {(sid, int(r[0])): bool(g > 0) for sid, rows in truth.items() if len(rows) >= 2
+                for r, g in zip(rows, np.gradient(np.hypot(rows[:, 1], rows[:, 3])), strict=True)}
     with source:
         for pair in source:
             pipe.step(pair)
@@ -120,7 +173,8 @@ def diagnose(pipe, diag: Diagnoser, source, truth: dict[int, np.ndarray]) -> tup
                 if track.status is not TrackStatus.TRACKING:
                     continue
                 bridges = {sid: rows[pair.t_ns] for sid, rows in index.items() if pair.t_ns in rows}
-                probe = diag.probe(pair.t_ns, track, bridges)
+                going = {sid: receding.get((sid, pair.t_ns), False) for sid in bridges}
+                probe = diag.probe(pair.t_ns, track, bridges, (pair.left, pair.right), going)
                 if probe is None:
                     misses["window off every ship"] += 1
                 else:
@@ -133,10 +187,25 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(x**2))) if x.size else math.nan
 
 
+def _mean(values: list[float]) -> str:
+    """Mean of the finite values and how many, '-' for none."""
+    x = np.array(values, float)
+    x = x[np.isfinite(x)]
+    return f"{np.mean(x):+.3f} ({x.size})" if x.size else "-"
+
+
+def _pair(ps: list[Probe]) -> str:
+    """Mean left / right outline errors (px) and how many fixes have both."""
+    x = np.array([(p.left_px, p.right_px) for p in ps], float).reshape(-1, 2)
+    x = x[np.isfinite(x).all(axis=1)]
+    return f"{np.mean(x[:, 0]):+.3f}/{np.mean(x[:, 1]):+.3f} ({len(x)})" if len(x) else "-"
+
+
 def table(probes: list[Probe]) -> list[str]:
     """Per range bin: the error parts (m) and the disparity errors (px) of the followed point."""
     heads = ("range", "n", "tol m", "geom mean", "geom RMS", "meas RMS m", "raw mean px", "raw RMS px",
-             "raw MAD px", "filt mean px", "filt RMS px", "IMO", "IMO geom=0", "IMO meas=0", "ship%")
+             "raw MAD px", "filt mean px", "filt RMS px", "IMO", "IMO geom=0", "IMO meas=0", "ship%",
+             "win", "raw-bridge px", "L/R approaching px", "L/R receding px")
     out = [" ".join(f"{h:>{max(len(h), 5)}}" for h in heads) + "  parts"]
     for lo, hi in BINS_M:
         ps = [p for p in probes if lo <= p.range_m < hi]
@@ -158,7 +227,10 @@ def table(probes: list[Probe]) -> list[str]:
                   f"{np.mean(raw_f) if raw_f.size else math.nan:.3f}", f"{_rms(raw):.3f}", f"{mad:.3f}",
                   f"{np.mean(filt):.3f}", f"{_rms(filt):.3f}", f"{100 * np.mean(np.abs(total) <= tol):.0f}%",
                   f"{100 * np.mean(np.abs(meas) <= tol):.0f}%", f"{100 * np.mean(np.abs(geo) <= tol):.0f}%",
-                  f"{100 * np.mean([p.ship_share for p in ps]):.0f}%")
+                  f"{100 * np.mean([p.ship_share for p in ps]):.0f}%",
+                  "/".join(str(w) for w in sorted({p.window for p in ps})),
+                  _mean([p.raw_bridge_px for p in ps]), _pair([p for p in ps if not p.receding]),
+                  _pair([p for p in ps if p.receding]))
         part_s = " ".join(f"{k}:{100 * v / len(ps):.0f}%" for k, v in sorted(parts.items()))
         cells = (f"{v:>{max(len(h), 5)}}" for h, v in zip(heads, values, strict=True))
         out.append(" ".join(cells) + "  " + part_s)

@@ -46,9 +46,17 @@ the best cost, and a cost curve that brackets the minimum (den > 0). Failures co
 `valid=False` with a reason, never as an exception; only programming errors (an unknown cost or
 method name) raise ValueError.
 
-Real camera pairs: pass both images through `edge.core.prefilter.xsobel` once per frame
-first; on the Middlebury pair that is what makes this matcher beat OpenCV StereoBM, while on
-clean renders it costs accuracy (tools/bench-core, "real" and "subpixel" sections).
+Real camera pairs: a window fit measures the disparity averaged over the window with weights
+~ Ix^2, so on a slanted or curved surface the raw fit reports the disparity at the window's
+strongest edges, not at its centre (tools/bench-core, real section: on Middlebury the raw
+error correlates 0.83 with that weighted ground truth). Passing both images through
+`edge.core.prefilter.xsobel` (or `xsobel_normalised`) first evens the weights: that beats OpenCV
+StereoBM on Middlebury but costs accuracy on renders, so it is opt-in (README, "Known limits").
+A check that swapped in the normalised fit only where the two disagree beyond noise was measured
+(commit 7af22db) and dropped: better than StereoBM on Middlebury, unchanged on renders, but worse
+in the pipeline (a ship's outline against sky or sea at another range is what the raw weights
+should follow), slower than the 100 us budget, and its integer and float paths could branch
+apart.
 
 `impl` picks the arithmetic: "int" (default, exact integers with the fast cross-correlation),
 "int-ref" (the plain int64 definition: bit-identical, slower) or "float" (float64 reference

@@ -1,14 +1,18 @@
-"""reference_points(): texture in the upper part, spread out; median() equals numpy's; ship_window()."""
+"""reference_points(): texture in the upper part, spread out; median() equals numpy's, line_fit() polyfit's,
+slope_sigma() the regression standard error; ship_window()."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
 from helpers import band_texture, shifted_u8
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.stats import linregress
 
-from edge.anchor import SHIP_WINDOW_MARGIN_PX, line_fit, median, reference_points, ship_window
+from edge.anchor import SHIP_WINDOW_MARGIN_PX, line_fit, median, reference_points, ship_window, slope_sigma
 
 
 def test_reference_points_pick_texture_in_the_upper_part_and_spread_out() -> None:
@@ -38,6 +42,26 @@ def test_line_fit_equals_polyfit(points: list[tuple[int, float]]) -> None:
     slope, intercept = np.polyfit(t, [p[1] for p in points], 1)
     got = line_fit(points)
     assert got[0] == pytest.approx(intercept, abs=1e-6) and got[1] == pytest.approx(slope, abs=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 50), st.floats(-100, 100)), min_size=3, max_size=12,
+                unique_by=lambda p: p[0]), st.floats(0.0, 2.0))
+def test_slope_sigma_is_the_regression_standard_error(points: list[tuple[int, float]], floor: float) -> None:
+    """Against scipy's linregress: the slope's standard error from the residual scatter, or from
+    `floor` where the points scatter less than it."""
+    points.sort()
+    t = np.array([p[0] for p in points], float)
+    y = np.array([p[1] for p in points])
+    intercept, slope = line_fit(points)
+    reference = linregress(t, y).stderr
+    stt = float(((t - t.mean()) ** 2).sum())
+    expected = max(reference, floor / math.sqrt(stt))
+    assert slope_sigma(points, intercept, slope, floor) == pytest.approx(expected, rel=1e-6, abs=1e-6)
+
+
+def test_slope_sigma_is_unknown_below_three_points() -> None:
+    assert math.isinf(slope_sigma([(0, 1.0), (1, 2.0)], 2.0, 1.0, 0.05))
 
 
 def _scene(box_w: int, sea_dn: float, seed: int) -> tuple[np.ndarray, tuple[int, int, int, int]]:

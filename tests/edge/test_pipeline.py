@@ -132,3 +132,16 @@ def test_speed_is_reported_only_when_the_range_rate_is_known(recording) -> None:
     with_speed = [f.sog_kn for f in near if f.sog_kn is not None]
     assert len(with_speed) > len(near) // 2
     assert all(abs(s - 12.0) < 3.0 for s in with_speed)
+
+
+def test_speed_needs_a_rate_sigma(akashi) -> None:
+    """The Butterworth filter (the thesis's, kept for comparison) gives no rate sigma, so its fixes
+    carry no speed or course; the Kalman's fixes of the same pairs do once it has run 2 s."""
+    path, pairs = akashi
+    with ReplaySource(path) as src:
+        meta = src.meta
+    cal = recording_calibration(path, meta)
+    kalman = _run(Pipeline(cal, PipelineConfig(), fps=meta["fps"]), pairs)
+    butterworth = _run(Pipeline(cal, PipelineConfig(), fps=meta["fps"], filter="butterworth"), pairs)
+    assert any(f.sog_kn is not None for f in kalman)
+    assert butterworth and all(f.sog_kn is None and f.cog_deg is None for f in butterworth)
