@@ -40,7 +40,7 @@ from edge.pointbatch import Follow, Steps, follow_request, run_one, stereo_reque
 from edge.pointfilter import MAX_SHIP_SPEED_MPS, NOISE_WINDOW, PointFilter
 from edge.ranging import Designs
 
-SUBPIXELS = ("cancel6-gauss", "cancel", "parabola", "none")
+SUBPIXELS = ("cancel6-gauss", "refit", "cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
 COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
 REFIT_COLUMNS = 5  # follows in the column line before its slope is used for the speed
