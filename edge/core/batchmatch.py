@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from edge.core.batchsubpix import gauss6_q8_batch
 from edge.core.costs import COSTS
 from edge.core.match import (
     SUBPIXEL_METHODS,
@@ -38,6 +39,7 @@ from edge.core.match import (
     Match,
     check_images,
     finish_match,
+    match_gate,
     match_point,
     round_half_away,
     search_range,
@@ -216,6 +218,7 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
             continue
         searches.append((i, xf, yf, xi, yi, lo, hi, sigma, g2 / 4.0))
     arith = CostArithmetic("int", cost)
+    searched = []                                     # (item, its curve, k0, ratio, bands)
     for n, items in _share_curves(searches, [r.shape[1] for r in rights], h).items():
         templates = np.stack([lefts[it[0]][it[4] - h:it[4] + h + 1, it[3] - h:it[3] + h + 1] for it in items])
         bands = np.stack([rights[i][yi - h:yi + h + 1, xi - h - start - n + 1:xi + h + 1 - start]
@@ -225,12 +228,35 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
         last = np.array([it[6] - it[9] for it in items])
         k0s, ratios = _curve_minima(curves, first, last)
         for it, curve, a, k0, ratio in zip(items, curves, first.tolist(), k0s, ratios, strict=True):
-            i, xf, yf, xi, yi, lo, hi, sigma, texture, _ = it
-            rows = slice(yi - h, yi + h + 1)
-            out[i] = finish_match(arith, lefts[i][rows], rights[i][rows], xf, yf, xi, lo,
-                                  curve[a:a + hi - lo + 1], sigma, texture, width=lefts[i].shape[1],
-                                  subpixel=subpixel, min_ratio=min_ratio, k0=k0, ratio=ratio)
+            i, rows = it[0], slice(it[4] - h, it[4] + h + 1)
+            row_bands = (lefts[i][rows], rights[i][rows])
+            searched.append((it, curve[a:a + it[6] - it[5] + 1], k0, ratio, row_bands))
+    refined = _refine_gauss(searched, h, [left.shape[1] for left in lefts], subpixel, cost, min_ratio)
+    for (it, curve, k0, ratio, (a_band, b_band)), value in zip(searched, refined, strict=True):
+        i, xf, yf, xi, yi, lo, hi, sigma, texture, _ = it
+        out[i] = finish_match(arith, a_band, b_band, xf, yf, xi, lo, curve, sigma, texture,
+                              width=lefts[i].shape[1], subpixel=subpixel, min_ratio=min_ratio, k0=k0,
+                              ratio=ratio, refined=None if value is None else (value, ""))
     return out  # type: ignore[return-value]
+
+
+def _refine_gauss(searched: list[tuple], h: int, widths: list[int], subpixel: str, cost: str,
+                  min_ratio: float) -> list[int | None]:
+    """`refine`'s Q8 result of each searched point that passes `match_gate` and takes the six-pass
+    Gaussian cancellation, all in one batch (edge.core.batchsubpix); None where finish_match is to
+    run `refine` itself (other methods, a failed gate, or no Gaussian fit: its parabola fallback)."""
+    out: list[int | None] = [None] * len(searched)
+    if subpixel != "cancel6-gauss" or cost != "zssd":
+        return out
+    todo = [j for j, (it, curve, k0, ratio, _) in enumerate(searched)
+            if not match_gate(2 * h + 1, it[3], it[5], len(curve), k0, ratio, width=widths[it[0]],
+                              subpixel=subpixel, min_ratio=min_ratio)]
+    values = gauss6_q8_batch([searched[j][4][0] for j in todo], [searched[j][4][1] for j in todo],
+                             [searched[j][0][3] for j in todo],
+                             [searched[j][0][5] + searched[j][2] for j in todo])
+    for j, value in zip(todo, values, strict=True):
+        out[j] = value
+    return out
 
 
 def _share_curves(searches: list[tuple], widths: list[int], h: int) -> dict[int, list[tuple]]:
