@@ -48,21 +48,38 @@ def ncc_terms_batch(regions: np.ndarray) -> np.ndarray:
     return terms.astype(np.int64)
 
 
-def vertex_fits_q(curves: np.ndarray, firsts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def vertex_fits_q(curves: np.ndarray, firsts: np.ndarray,
+                  lengths: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """`subpixel.gauss_fit_q` along the last axis: (..., L) int64 log curves, (...) disparity of
     each curve's first entry -> (Q10 fits, ok). ok is False where the first minimum is at an end,
-    the curve does not open upwards, or the vertex lies more than one sample away (fit undefined)."""
+    the curve does not open upwards, or the vertex lies more than one sample away (fit undefined).
+    `lengths` (broadcast to the curves' leading shape): curves shorter than L, padded with a value
+    above every entry (the pad is never a first minimum, and a minimum next to it is an end)."""
     size = curves.shape[-1]
-    k = curves.argmin(axis=-1)                                    # the first minimum, as list.index
-    ok = (k > 0) & (k < size - 1)
-    kc = np.clip(k, 1, size - 2)[..., None]
-    ym, y0, yp = (np.take_along_axis(curves, kc + o, axis=-1)[..., 0] for o in (-1, 0, 1))
+    flat = curves.reshape(-1, size)
+    last = (np.full(curves.shape[:-1], size) if lengths is None
+            else np.broadcast_to(lengths, curves.shape[:-1])).reshape(-1) - 1
+    k = flat.argmin(axis=1)                                       # the first minimum, as list.index
+    ok = (k > 0) & (k < last)
+    rows, kc = np.arange(len(flat)), np.minimum(np.maximum(k, 1), size - 2)
+    ym, y0, yp = flat[rows, kc - 1], flat[rows, kc], flat[rows, kc + 1]
     num, den = ym - yp, 2 * (ym - 2 * y0 + yp)
     ok &= (den > 0) & (np.abs(num) <= den)
     den = np.where(ok, den, 1)
     scaled = num << FIT_BITS
     q = (2 * np.abs(scaled) + den) // (2 * den)                  # fixedpoint.div_round
-    return ((firsts + k) << FIT_BITS) + np.where(scaled >= 0, q, -q), ok
+    fits = ((firsts.reshape(-1) + k) << FIT_BITS) + np.where(scaled >= 0, q, -q)
+    return fits.reshape(curves.shape[:-1]), ok.reshape(curves.shape[:-1])
+
+
+_PAD = 1 << 40     # above every log curve entry (|y| < 2^32), below any overflow in the fit's sums
+# the six pass curves of `subpixel._split_lists` as indices into [LR row (13) | RL row (13) | pad]:
+# LR-A, RL-A (5 entries), LR-B, RL-B, LR-B', RL-B' (4 entries and the pad), ascending disparity
+_CURVES = np.array([[4, 3, 2, 1, 0], [17, 16, 15, 14, 13], [8, 7, 6, 5, 26], [21, 20, 19, 18, 26],
+                    [12, 11, 10, 9, 26], [25, 24, 23, 22, 26]])
+_LENGTHS = np.array([5, 5, 4, 4, 4, 4])
+_FIRST_SIGN = np.array([1, -1, 1, -1, 1, -1])      # LR passes start at d0 - 2, RL passes at -d0 - 2
+_WEIGHTS = np.array([2, -2, 1, -1, 1, -1])         # subpixel.symmetric6_q8 (RL fits sign-flipped)
 
 
 def gauss6_q8_batch(left_bands: Sequence[np.ndarray], right_bands: Sequence[np.ndarray],
@@ -71,24 +88,24 @@ def gauss6_q8_batch(left_bands: Sequence[np.ndarray], right_bands: Sequence[np.n
     cancellation around d0s[i] for the window at column xls[i] of the w-row bands, or None where
     the per-point routine gives None. Needs columns x - h - 2 .. x + h + 3 of both bands (the
     caller's border gate, `match.match_gate`)."""
-    if not len(xls):
+    n = len(xls)
+    if not n:
         return []
-    h = left_bands[0].shape[0] // 2
-    regions = np.stack([np.stack((a[:, x - h - 2:x + h + 4], b[:, x - d - h - 2:x - d + h + 4]))
-                        for a, b, x, d in zip(left_bands, right_bands, xls, d0s, strict=True)])
+    w = left_bands[0].shape[0]
+    h = w // 2
+    regions = np.empty((n, 2, w, w + 5))
+    for k, (a, b, x, d) in enumerate(zip(left_bands, right_bands, xls, d0s, strict=True)):
+        regions[k, 0], regions[k, 1] = a[:, x - h - 2:x + h + 4], b[:, x - d - h - 2:x - d + h + 4]
     terms = ncc_terms_batch(regions)
     positive = terms.min(axis=(1, 2)) > 0
     logs = log2_q(np.where(positive[:, None, None], terms, 1))
-    y = logs[..., :13] - 2 * logs[..., 13:]                       # (n, 2, 13): LR row, RL row
-    d0 = np.asarray(d0s, dtype=np.int64)
-    first = np.stack((d0 - 2, -d0 - 2), axis=1)                   # LR passes start at d0-2, RL at -d0-2
-    fits_a, ok_a = vertex_fits_q(y[..., 4::-1], first)            # LR-A, RL-A: (n, 2)
-    fits_b, ok_b = vertex_fits_q(y[..., 8:4:-1], first)           # LR-B, RL-B
-    fits_m, ok_m = vertex_fits_q(y[..., 12:8:-1], first)          # LR-B', RL-B'
-    ok = positive & ok_a.all(axis=1) & ok_b.all(axis=1) & ok_m.all(axis=1)
-    eight_d = (2 * (fits_a[:, 0] - fits_a[:, 1]) + fits_b[:, 0] - fits_b[:, 1]     # subpixel.symmetric6_q8
-               + fits_m[:, 0] - fits_m[:, 1])
-    values = round_shift_array(eight_d, FIT_BITS + 3 - SUBPIX_BITS).tolist()
+    y = np.empty((n, 27), np.int64)
+    y[:, :26] = (logs[..., :13] - 2 * logs[..., 13:]).reshape(n, 26)     # -2 log2 NCC + const
+    y[:, 26] = _PAD
+    firsts = np.asarray(d0s, dtype=np.int64)[:, None] * _FIRST_SIGN - 2
+    fits, ok = vertex_fits_q(y[:, _CURVES], firsts, _LENGTHS)                  # (n, 6)
+    ok = positive & ok.all(axis=1)
+    values = round_shift_array(fits @ _WEIGHTS, FIT_BITS + 3 - SUBPIX_BITS).tolist()
     return [v if good else None for v, good in zip(values, ok.tolist(), strict=True)]
 
 
