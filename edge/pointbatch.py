@@ -35,7 +35,12 @@ from edge.core.refpoint import PointTrack, track_point
 if TYPE_CHECKING:
     from edge.trackpoint import PointSettings
 
-BATCH_MIN = 4  # fewer requests of a kind are answered one by one (same results; tools/bench, 1 ship)
+# fewer requests of a kind and settings are answered one by one (same results): the batched follow
+# is cheaper than `track_point` even for one point (its parabola curves come off the cost square),
+# the batched match only from about three points on (its fixed cost: the batched products and the
+# vectorised Gaussian fits cost more than one point's own). Tracks with a window of their own
+# (edge.anchor.ship_window) form small groups: tools/bench's 8-ship scene has groups of 1, 3 and 4
+BATCH_MIN = {"Follow": 1, "StereoMatch": 3}
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,7 +150,7 @@ def answer_all(requests: Sequence[Request]) -> list[PointTrack | Match]:
         groups[(type(r), r.settings)].append(i)
     for (kind, s), idx in groups.items():
         rs = [requests[i] for i in idx]
-        if len(rs) < BATCH_MIN:                        # too few to repay the batch's fixed cost
+        if len(rs) < BATCH_MIN[kind.__name__]:        # too few to repay the batch's fixed cost
             answers = [r.run() for r in rs]
         elif kind is Follow:
             answers = track_points([r.prev for r in rs], [r.cur for r in rs], [r.x for r in rs],
