@@ -1,5 +1,6 @@
 """Batched sub-pixel stage: the six-pass Gaussian cancellation (`match.refine` with
-subpixel="cancel6-gauss", ZSSD) of many points in a few numpy operations.
+subpixel="cancel6-gauss", ZSSD) of many points in a few numpy operations, and the 3-point
+parabola (subpixel="parabola", the left follow's fits) of many curves.
 
 Why: once the integer searches were batched (edge.core.batchmatch), the per-point sub-pixel
 stage was the largest per-track cost of the pipeline (tools/bench --stages, "sub-pixel
@@ -72,6 +73,21 @@ def vertex_fits_q(curves: np.ndarray, firsts: np.ndarray,
     return fits.reshape(curves.shape[:-1]), ok.reshape(curves.shape[:-1])
 
 
+def parabola3_q8(curves: np.ndarray, d0s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`match.refine(..., "parabola")` of 3-point curves: (..., 3) int64 costs for d0 - 1, d0, d0 + 1,
+    (...) d0 -> (Q8 sub-pixel disparities, ok). ok is False where refine has none: the middle is not
+    the first minimum, or the parabola (eq. 5.2) does not bracket it (`subpixel.parabola_q`).
+    |costs| < 2^50 (ZSSD of windows up to 61 x 61 of 9-bit data: < 2^44)."""
+    cm, c0, cp = curves[..., 0], curves[..., 1], curves[..., 2]
+    num, den = cm - cp, 2 * (cm - 2 * c0 + cp)
+    ok = (c0 < cm) & (c0 <= cp) & (den > 0) & (2 * np.abs(num) <= den)      # subpixel.interior_argmin
+    den = np.where(ok, den, 1)
+    scaled = num << FIT_BITS
+    q = (2 * np.abs(scaled) + den) // (2 * den)                  # fixedpoint.div_round
+    fit = (d0s << FIT_BITS) + np.where(scaled >= 0, q, -q)
+    return round_shift_array(fit, FIT_BITS - SUBPIX_BITS), ok      # subpixel.fit_to_q8
+
+
 _PAD = 1 << 40     # above every log curve entry (|y| < 2^32), below any overflow in the fit's sums
 # the six pass curves of `subpixel._split_lists` as indices into [LR row (13) | RL row (13) | pad]:
 # LR-A, RL-A (5 entries), LR-B, RL-B, LR-B', RL-B' (4 entries and the pad), ascending disparity
@@ -109,4 +125,4 @@ def gauss6_q8_batch(left_bands: Sequence[np.ndarray], right_bands: Sequence[np.n
     return [v if good else None for v, good in zip(values, ok.tolist(), strict=True)]
 
 
-__all__ = ["gauss6_q8_batch", "ncc_terms_batch", "vertex_fits_q"]
+__all__ = ["gauss6_q8_batch", "ncc_terms_batch", "parabola3_q8", "vertex_fits_q"]

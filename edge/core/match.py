@@ -60,6 +60,7 @@ from edge.core.fixedpoint import SUBPIX_BITS, from_q
 SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "cancel-oneway", "parabola", "none")
 IMPLS = ("int", "int-ref", "float")
 DEFAULT_SEARCH_RADIUS = 4
+NO_BRACKET = "cost curve does not bracket the minimum (den <= 0)"  # refine's parabola failure
 
 
 @dataclass(frozen=True)
@@ -144,7 +145,7 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
     if method == "parabola":
         fit = arith.fit(costs[k0 - 1:k0 + 2], d0 - 1)
         if fit is None:
-            return None, "cost curve does not bracket the minimum (den <= 0)"
+            return None, NO_BRACKET
         return (fit if arith.is_float else sp.fit_to_q8(fit)), ""
     if method == "cancel6-gauss" and arith.cost == "zssd":
         value = _gauss6(arith, a_band, b_band, xa, d0)

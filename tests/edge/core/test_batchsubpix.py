@@ -1,5 +1,5 @@
-"""Batched six-pass Gaussian cancellation: bit-identical to the per-point integer routine
-(`match._gauss6`, the reference) on random and textured bands, fits and failures alike."""
+"""Batched sub-pixel fits: bit-identical to the per-point integer routines (`match._gauss6` and
+`match.refine`'s parabola, the references) on random and textured data, fits and failures alike."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.core.batchsubpix import gauss6_q8_batch, ncc_terms_batch, vertex_fits_q
-from edge.core.match import CostArithmetic, _gauss6
+from edge.core.batchsubpix import gauss6_q8_batch, ncc_terms_batch, parabola3_q8, vertex_fits_q
+from edge.core.match import NO_BRACKET, CostArithmetic, _gauss6, refine
 from edge.core.subpixel import _ncc_terms, gauss_fit_q
 from edge.core.synth import make_scene, render_view, sensor
 
@@ -87,3 +87,22 @@ def test_vertex_fits_equal_gauss_fit_q(curves: list[list[int]], first: int) -> N
         assert good == (ref is not None)
         if good:
             assert f == ref
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.lists(st.integers(-(2**40), 2**40), min_size=3, max_size=3), min_size=1, max_size=8),
+       st.lists(st.integers(-300, 300), min_size=8, max_size=8))
+def test_parabola3_equals_refine(curves: list[list[int]], d0s: list[int]) -> None:
+    """Any 3-point integer curves (ties, no minimum, far vertices): refine's parabola where it has
+    one, and not ok exactly where it has none."""
+    d0 = np.array(d0s[:len(curves)], dtype=np.int64)
+    got, ok = parabola3_q8(np.array(curves, dtype=np.int64), d0)
+    arith = CostArithmetic("int", "zssd")
+    for c, d, q, good in zip(curves, d0.tolist(), got.tolist(), ok.tolist(), strict=True):
+        value, reason = refine(arith, np.zeros((1, 1), np.uint8), np.zeros((1, 1), np.uint8), 0, d - 1,
+                               np.array(c, dtype=np.int64), 1, "parabola")
+        assert good == (value is not None)
+        if good:
+            assert q == value
+        else:
+            assert reason == NO_BRACKET
