@@ -37,12 +37,17 @@ def ncc_terms_batch(regions: np.ndarray) -> np.ndarray:
     xl - d0, columns x - h - 2 .. x + h + 3; any integer dtype) -> (n, 2, 26) int64
     [N-scaled E_W | N-scaled 2X] of the 13 candidates of each direction."""
     w = regions.shape[2]
-    regs = regions.astype(np.float64)
+    # column sums over the w rows and the product's entries are sums of w terms <= 510^2: float32
+    # holds them exactly while w 510^2 < 2^24 (windows up to 63 rows), at half the memory traffic of
+    # float64; the sums over the window's columns (up to w^2 510^2) are then taken in float64
+    exact = np.float32 if w * 510 * 510 < 2**24 else np.float64
+    regs = regions.astype(exact)
     ext = np.concatenate((regs[..., :-1] + regs[..., 1:], 2 * regs[..., :-1]), axis=-1)  # (n, 2, w, 2w+8)
     windows, tmpl_cols, rows, pair_cols = _ncc_index(w)
-    s1, s2 = np.stack((ext.sum(axis=2), (ext * ext).sum(axis=2))) @ windows           # (n, 2, 9) each
+    columns = np.stack((ext.sum(axis=2), (ext * ext).sum(axis=2))).astype(np.float64)
+    s1, s2 = columns @ windows                                                        # (n, 2, 9) each
     prod = np.matmul(ext[..., tmpl_cols].transpose(0, 1, 3, 2), ext[:, ::-1])        # (n, 2, 2w, 2w+8)
-    cross = prod[:, :, rows, pair_cols].sum(axis=-1)                                  # (n, 2, 13)
+    cross = prod[:, :, rows, pair_cols].astype(np.float64).sum(axis=-1)               # (n, 2, 13)
     n = w * w
     s1_w, s2_w = s1[:, ::-1][..., _CANDIDATE_OF], s2[:, ::-1][..., _CANDIDATE_OF]
     terms = np.concatenate((n * s2_w - s1_w * s1_w, 2 * (n * cross - s1[..., _TEMPLATE_OF] * s1_w)), axis=-1)
@@ -109,7 +114,7 @@ def gauss6_q8_batch(left_bands: Sequence[np.ndarray], right_bands: Sequence[np.n
         return []
     w = left_bands[0].shape[0]
     h = w // 2
-    regions = np.empty((n, 2, w, w + 5))
+    regions = np.empty((n, 2, w, w + 5), np.uint8)
     for k, (a, b, x, d) in enumerate(zip(left_bands, right_bands, xls, d0s, strict=True)):
         regions[k, 0], regions[k, 1] = a[:, x - h - 2:x + h + 4], b[:, x - d - h - 2:x - d + h + 4]
     terms = ncc_terms_batch(regions)
