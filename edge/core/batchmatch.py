@@ -130,19 +130,20 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
     h, r = window // 2, search_radius
     side = window + 2 * r
     fast: list[tuple[int, FollowSite]] = []
-    regions, searched = [], []
+    regions = np.empty((n, window + 2, window + 2), np.uint8)     # the windows + 1 all round
+    searched = np.empty((n, side, side), np.uint8)                 # the search squares
     for i in range(n):
         site = follow_site(prevs[i], curs[i], xs[i], ys[i], window, search_radius, predicted_dxs[i],
                            predicted_dys[i])
         if isinstance(site, PointTrack):
             out[i] = site
             continue
-        xi, yi, x0 = site.xi, site.yi, site.xi + site.pu - r - h
+        xi, yi, x0, y0 = site.xi, site.yi, site.xi + site.pu - r - h, site.yi + site.pv - r - h
+        regions[len(fast)] = prevs[i][yi - h - 1:yi + h + 2, xi - h - 1:xi + h + 2]
+        searched[len(fast)] = curs[i][y0:y0 + side, x0:x0 + side]
         fast.append((i, site))
-        regions.append(prevs[i][yi - h - 1:yi + h + 2, xi - h - 1:xi + h + 2])    # window + 1 all round
-        searched.append(curs[i][yi + site.pv - r - h:yi + site.pv - r - h + side, x0:x0 + side])
     if fast:
-        region = np.stack(regions).astype(np.int32)
+        region = regions[:len(fast)].astype(np.int32)
         gx = region[:, 1:-1, 2:] - region[:, 1:-1, :-2]          # = gradient_energy of the window rows
         gy = region[:, 2:, 1:-1] - region[:, :-2, 1:-1]          # ... and of its columns
         energy_x, energy_y = (gx * gx).sum(axis=(1, 2)).tolist(), (gy * gy).sum(axis=(1, 2)).tolist()
@@ -156,7 +157,9 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
                 out[i] = track_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=predicted_dxs[i],
                                      predicted_dy=predicted_dys[i], **kw)
         if keep:
-            costs = batch_costs(region[keep, 1:-1, 1:-1], np.stack([searched[k] for k in keep]), "zssd")
+            every = len(keep) == len(fast)
+            costs = batch_costs(region[:, 1:-1, 1:-1] if every else region[keep, 1:-1, 1:-1],
+                                searched[:len(fast)] if every else searched[keep], "zssd")
             flat_best = costs.reshape(len(keep), -1).argmin(axis=1)
             iy, ix = np.divmod(flat_best, 2 * r + 1)
             ratios = _second_ratios(costs, iy, ix)
