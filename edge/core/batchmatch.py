@@ -235,7 +235,7 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
         gathered.append(lefts[i][yi - h:yi + h + 1, xi - h - 1:xi + h + 2])
     if not sites:
         return out  # type: ignore[return-value]
-    rows = np.stack(gathered).astype(np.int32)
+    rows = np.array(gathered, dtype=np.int32)
     g = rows[:, :, 2:] - rows[:, :, :-2]
     energies = (g * g).sum(axis=(1, 2)).tolist()
     searches = []
@@ -254,9 +254,11 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
     arith = CostArithmetic("int", cost)
     searched = []                                     # (item, its curve, k0, ratio, bands)
     for n, items in _share_curves(searches, [r.shape[1] for r in rights], h).items():
-        templates = np.stack([lefts[it[0]][it[4] - h:it[4] + h + 1, it[3] - h:it[3] + h + 1] for it in items])
-        bands = np.stack([rights[i][yi - h:yi + h + 1, xi - h - start - n + 1:xi + h + 1 - start]
-                          for i, _, _, xi, yi, *_, start in items])
+        templates = np.empty((len(items), window, window), np.uint8)
+        bands = np.empty((len(items), window, window + n - 1), np.uint8)
+        for k, (i, _, _, xi, yi, *_, start) in enumerate(items):
+            templates[k] = lefts[i][yi - h:yi + h + 1, xi - h:xi + h + 1]
+            bands[k] = rights[i][yi - h:yi + h + 1, xi - h - start - n + 1:xi + h + 1 - start]
         curves = batch_costs(templates, bands, cost)[:, 0, ::-1]       # ascending disparity from lo'
         first = np.array([it[5] - it[9] for it in items])
         last = np.array([it[6] - it[9] for it in items])
