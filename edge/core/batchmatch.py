@@ -63,13 +63,15 @@ def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") 
     nv, nu = height - h + 1, width - w + 1
     # cross-correlation: one product per item of the template's columns with all its rows of
     # windows, [k, j] = sum_i T[i, k] R[v + i, j]; the diagonal sums over k give sum T*R at u = j - k.
-    # Every partial sum is an integer <= h w 255^2: float32 holds them exactly up to 2**24 (windows
-    # up to 16 x 16), which halves the product's cost; larger windows take float64
-    exact = np.float32 if h * w * 255 * 255 < 2**24 else np.float64
+    # A product entry is an integer <= h 255^2 and a diagonal sum one <= h w 255^2: float32 holds
+    # them exactly below 2**24, which halves the product's cost, so the product is float32 for any
+    # window up to 258 rows, and the diagonal sums are too up to 16 x 16 (float64 beyond)
+    exact = np.float32 if h * 255 * 255 < 2**24 else np.float64
+    summed = np.float32 if h * w * 255 * 255 < 2**24 else np.float64
     rows = sliding_window_view(regions.astype(exact), h, axis=1).transpose(0, 3, 1, 2)
     prod = np.matmul(templates.astype(exact).transpose(0, 2, 1), rows.reshape(n_items, h, nv * width))
     prod = prod.reshape(n_items, w, nv, width)
-    cross = prod[:, 0, :, :nu].copy()
+    cross = prod[:, 0, :, :nu].astype(summed)
     for k in range(1, w):
         cross += prod[:, k, :, k:k + nu]
     t = templates.astype(np.float64)
