@@ -48,7 +48,7 @@ from edge.core.match import (
 )
 from edge.core.refpoint import FollowSite, PointTrack, finish_follow, follow_site, texture_sigmas, track_point
 
-_NO_COST = np.iinfo(np.int64).max  # border padding of the cost squares (never a local minimum's rival)
+_NO_COST = np.iinfo(np.int64).max  # above every cost: masks entries out of a minimum
 _MATCH_SUBPIXEL = inspect.signature(match_point).parameters["subpixel"].default  # match_points follows it
 
 
@@ -94,10 +94,12 @@ def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") 
 def _second_ratios(costs: np.ndarray, iy: np.ndarray, ix: np.ndarray) -> list[float]:
     """`refpoint._second_ratio_2d` of each (n, s, s) cost square around its (iy, ix)."""
     n, s = costs.shape[0], costs.shape[1]
-    padded = np.pad(costs, ((0, 0), (1, 1), (1, 1)), constant_values=_NO_COST)
-    c = padded[:, 1:-1, 1:-1]
-    is_min = ((c <= padded[:, :-2, 1:-1]) & (c <= padded[:, 2:, 1:-1])
-              & (c <= padded[:, 1:-1, :-2]) & (c <= padded[:, 1:-1, 2:]))
+    c = costs
+    is_min = np.ones(c.shape, dtype=bool)           # not above any 4-neighbour (none beyond the edges)
+    is_min[:, 1:] &= c[:, 1:] <= c[:, :-1]
+    is_min[:, :-1] &= c[:, :-1] <= c[:, 1:]
+    is_min[:, :, 1:] &= c[:, :, 1:] <= c[:, :, :-1]
+    is_min[:, :, :-1] &= c[:, :, :-1] <= c[:, :, 1:]
     k = np.arange(s)
     near = ((np.abs(k[None, :] - iy[:, None]) <= 1)[:, :, None]
             & (np.abs(k[None, :] - ix[:, None]) <= 1)[:, None, :])
