@@ -33,9 +33,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from edge.core.batchsubpix import gauss6_q8_batch, parabola3_q8
 from edge.core.costs import COSTS
-from edge.core.fixedpoint import SUBPIX_BITS, from_q
 from edge.core.match import (
-    NO_BRACKET,
     SUBPIXEL_METHODS,
     CostArithmetic,
     Match,
@@ -48,6 +46,9 @@ from edge.core.match import (
 )
 from edge.core.refpoint import FollowSite, PointTrack, finish_follow, follow_site, texture_sigmas, track_point
 
+# from this many follows on, their parabola fits are vectorised (_axis_fits: ~25 numpy calls); fewer
+# fit them one by one off the cost squares (finish_follow's own path; the same values)
+AXIS_FITS_MIN = 5
 _NO_COST = np.iinfo(np.int64).max  # above every cost: masks entries out of a minimum
 _MATCH_SUBPIXEL = inspect.signature(match_point).parameters["subpixel"].default  # match_points follows it
 
@@ -168,7 +169,8 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
             iy, ix = np.divmod(flat_best, 2 * r + 1)
             ratios = _second_ratios(costs, iy, ix)
             sites = [fast[k][1] for k in keep]
-            fits = _axis_fits(costs, iy, ix, sites, r) if subpixel == "parabola" else None
+            vectorised = subpixel == "parabola" and len(keep) >= AXIS_FITS_MIN
+            fits = _axis_fits(costs, iy, ix, sites, r) if vectorised else None
             arith = CostArithmetic("int", "zssd")
             for j, (k, v, u) in enumerate(zip(keep, iy.tolist(), ix.tolist(), strict=True)):
                 i, site = fast[k]
@@ -182,27 +184,22 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
 def _axis_fits(costs: np.ndarray, iy: np.ndarray, ix: np.ndarray, sites: list[FollowSite],
                r: int) -> list[tuple[list, list] | None]:
     """The parabola fits `finish_follow` may need, off each (n, s, s) cost square around its minimum
-    (iy, ix): along x on the rows iy - 1 .. iy + 1, along y on the columns ix - 1 .. ix + 1, each
-    (d, "") or (None, reason) as `refpoint._curve_fit` gives it. None for a minimum on the square's
-    edge (finish_follow refuses it before any fit)."""
+    (iy, ix), as `refine` finds them: ([[Q8 fits along x on the rows iy - 1 .. iy + 1], [... along y
+    on the columns ix - 1 .. ix + 1]], [[whether each has one], [...]]). None for a minimum on the
+    square's edge (finish_follow refuses it before any fit)."""
     n, s = costs.shape[0], costs.shape[1]
-    cy, cx = np.clip(iy, 1, s - 2), np.clip(ix, 1, s - 2)
+    cy, cx = np.minimum(np.maximum(iy, 1), s - 2), np.minimum(np.maximum(ix, 1), s - 2)
     near = np.arange(-1, 2)
     block = costs[np.arange(n)[:, None, None], (cy[:, None] + near)[:, :, None],
                   (cx[:, None] + near)[:, None, :]]                               # (n, 3, 3)
     # the row fits take d = -u ascending (u = u0 + 1, u0, u0 - 1) around d0 = -u0; the columns alike
-    d0_rows = -(np.array([site.pu for site in sites]) - r + ix)
-    d0_cols = -(np.array([site.pv for site in sites]) - r + iy)
-    q_rows, ok_rows = parabola3_q8(block[:, :, ::-1], d0_rows[:, None])
-    q_cols, ok_cols = parabola3_q8(block[:, ::-1, :].transpose(0, 2, 1), d0_cols[:, None])
-
-    def fits(qs: list[int], oks: list[bool]) -> list:
-        return [(from_q(q, SUBPIX_BITS), "") if ok else (None, NO_BRACKET)
-                for q, ok in zip(qs, oks, strict=True)]
-
+    curves = np.stack((block[:, :, ::-1], block[:, ::-1, :].transpose(0, 2, 1)), axis=1)    # (n, 2, 3, 3)
+    d0 = np.stack((np.array([site.pu for site in sites]) - r + ix,
+                   np.array([site.pv for site in sites]) - r + iy), axis=1)
+    q8, ok = parabola3_q8(curves, -d0[:, :, None])
     edge = ((iy != cy) | (ix != cx)).tolist()
-    return [None if e else (fits(qr, okr), fits(qc, okc)) for e, qr, okr, qc, okc in
-            zip(edge, q_rows.tolist(), ok_rows.tolist(), q_cols.tolist(), ok_cols.tolist(), strict=True)]
+    fits = zip(q8.tolist(), ok.tolist(), strict=True)
+    return [None if e else fit for e, fit in zip(edge, fits, strict=True)]
 
 
 def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: Sequence[float],
