@@ -35,7 +35,12 @@ from edge.core.refpoint import PointTrack, track_point
 if TYPE_CHECKING:
     from edge.trackpoint import PointSettings
 
-BATCH_MIN = 4  # fewer requests of a kind are answered one by one (same results; tools/bench, 1 ship)
+# fewer requests of a kind and settings are answered one by one (same results): the batched follow
+# is cheaper than `track_point` even for one point (its parabola curves come off the cost square),
+# the batched match only from about three points on (its fixed cost: the batched products and the
+# vectorised Gaussian fits cost more than one point's own). Tracks with a window of their own
+# (edge.anchor.ship_window) form small groups: tools/bench's 8-ship scene has groups of 1, 3 and 4
+BATCH_MIN = {"Follow": 1, "StereoMatch": 3}
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,27 +109,36 @@ Request = Follow | StereoMatch
 Steps = Generator[Request, PointTrack | Match, bool]
 
 
+def follow_settings(s: PointSettings, max_sigma_px: float) -> FollowSettings:
+    return FollowSettings(s.window, s.follow_radius_px, s.follow_subpixel, s.noise_dn, max_sigma_px)
+
+
+def match_settings(s: PointSettings) -> MatchSettings:
+    gain = NOISE_GAIN if s.prefilter == "xsobel" else 1.0
+    return MatchSettings(s.window, s.search_radius_px, s.cost, s.subpixel, s.noise_dn * gain, s.max_sigma_px)
+
+
 def follow_request(s: PointSettings, template: np.ndarray, current: np.ndarray, x: float, y: float,
-                   predicted_dx: float, max_sigma_px: float) -> Follow:
-    return Follow(template, current, x, y, predicted_dx,
-                  FollowSettings(s.window, s.follow_radius_px, s.follow_subpixel, s.noise_dn, max_sigma_px))
+                   predicted_dx: float, max_sigma_px: float,
+                   settings: FollowSettings | None = None) -> Follow:
+    """`settings`: `follow_settings(s, max_sigma_px)` when the caller keeps it (a track's are constant)."""
+    return Follow(template, current, x, y, predicted_dx, settings or follow_settings(s, max_sigma_px))
 
 
 def stereo_request(s: PointSettings, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float,
-                   v: float, pred: float | None) -> StereoMatch:
+                   v: float, pred: float | None, settings: MatchSettings | None = None) -> StereoMatch:
     """The match of rectified left point (u, v): patches of the rows the window covers and the columns
-    the search needs (narrowed to the prediction when there is one)."""
+    the search needs (narrowed to the prediction when there is one). `settings`: `match_settings(s)`
+    when the caller keeps it."""
     h = s.window // 2
     ui, vi = int(round(u)), int(round(v))
     d_hi = s.max_disparity
     if pred is not None:
         d_hi = max(4, min(d_hi, int(math.ceil(pred)) + s.search_radius_px + 1))
     x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
-    get, gain = (rect.xsobel_patch, NOISE_GAIN) if s.prefilter == "xsobel" else (rect.patch, 1.0)
-    lp, rp = (get(image, side, x0, vi - h, width, 2 * h + 1) for side, image in enumerate((left, right)))
-    return StereoMatch(lp, rp, u - x0, v - (vi - h), d_hi, pred,
-                       MatchSettings(s.window, s.search_radius_px, s.cost, s.subpixel, s.noise_dn * gain,
-                                     s.max_sigma_px))
+    get = rect.xsobel_patch if s.prefilter == "xsobel" else rect.patch
+    lp, rp = get(left, 0, x0, vi - h, width, 2 * h + 1), get(right, 1, x0, vi - h, width, 2 * h + 1)
+    return StereoMatch(lp, rp, u - x0, v - (vi - h), d_hi, pred, settings or match_settings(s))
 
 
 def run_one(steps: Steps) -> bool:
@@ -145,7 +159,7 @@ def answer_all(requests: Sequence[Request]) -> list[PointTrack | Match]:
         groups[(type(r), r.settings)].append(i)
     for (kind, s), idx in groups.items():
         rs = [requests[i] for i in idx]
-        if len(rs) < BATCH_MIN:                        # too few to repay the batch's fixed cost
+        if len(rs) < BATCH_MIN[kind.__name__]:        # too few to repay the batch's fixed cost
             answers = [r.run() for r in rs]
         elif kind is Follow:
             answers = track_points([r.prev for r in rs], [r.cur for r in rs], [r.x for r in rs],
@@ -185,5 +199,5 @@ def step_points(all_steps: Sequence[Steps]) -> list[bool]:
     return results
 
 
-__all__ = ["Follow", "StereoMatch", "answer_all", "follow_request", "run_one", "step_points",
-           "stereo_request"]
+__all__ = ["Follow", "StereoMatch", "answer_all", "follow_request", "follow_settings", "match_settings",
+           "run_one", "step_points", "stereo_request"]

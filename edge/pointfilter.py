@@ -47,6 +47,8 @@ class PointFilter:
         self.noise_px = settings.sigma_meas_px  # the Kalman design level in use
         self.memory: tuple[int, float, float, float] | None = None  # last accepted (frame, d, d', sigma)
         self.recent: deque[float] = deque(maxlen=NOISE_WINDOW)
+        self._appended = 0  # raw disparities appended to `recent` so far (keys the scatter's cache)
+        self._scatter: tuple[int, float | None] = (-1, None)  # (_appended, scatter_px()) last computed
         self._reset_filters()
 
     def _reset_filters(self) -> None:
@@ -101,13 +103,18 @@ class PointFilter:
 
     def scatter_px(self) -> float | None:
         """Robust noise of the recent raw disparities: MAD of successive differences / sqrt(2)
-        (differences remove the slow trend of an approaching ship)."""
-        if len(self.recent) < MIN_SCATTER_SAMPLES:
-            return None
-        r = list(self.recent)
-        diff = [b - a for a, b in zip(r, r[1:], strict=False)]
-        centre = median(diff)
-        return 1.4826 * median([abs(x - centre) for x in diff]) / math.sqrt(2.0)
+        (differences remove the slow trend of an approaching ship). Computed once per new sample:
+        the filter, the table's lifecycle and the fixes all ask for it in a pair."""
+        if self._scatter[0] == self._appended:
+            return self._scatter[1]
+        scatter = None
+        if len(self.recent) >= MIN_SCATTER_SAMPLES:
+            r = list(self.recent)
+            diff = [b - a for a, b in zip(r, r[1:], strict=False)]
+            centre = median(diff)
+            scatter = 1.4826 * median([abs(x - centre) for x in diff]) / math.sqrt(2.0)
+        self._scatter = (self._appended, scatter)
+        return scatter
 
     @property
     def usable(self) -> bool:
@@ -141,6 +148,7 @@ class PointFilter:
         self.raw_disparity = z
         if z is not None:
             self.recent.append(z)
+            self._appended += 1
             self._adapt_noise()
         if self.kalman is not None:
             if z is not None and not self.kalman.running and not self._fits_memory(z):

@@ -41,7 +41,7 @@ from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
 from edge.fix import TrackStatus
-from edge.pointbatch import step_points
+from edge.pointbatch import answer_all, step_points, stereo_request
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
@@ -162,10 +162,16 @@ class TrackTable:
                     if overlap >= MIN_OVERLAP or _contains(db, track.point.u, track.point.v):
                         cost[i, j] = 1.0 - overlap
             rows, cols = linear_sum_assignment(cost)
-            for i, j in zip(rows, cols, strict=True):
-                if cost[i, j] < 1.0 or _contains(boxes[j], tracks[i].point.u, tracks[i].point.v):
-                    taken[j] = True
-                    confirmed[i] = self._confirm(tracks[i], boxes[j], left, right, t_ns)
+            pairs = [(i, j) for i, j in zip(rows.tolist(), cols.tolist(), strict=True)
+                     if cost[i, j] < 1.0 or _contains(boxes[j], tracks[i].point.u, tracks[i].point.v)]
+            # each pair's confirmation in two halves around its slope test, whose matches (two per
+            # tentative track) are answered together: the tracks share no state, so the same results
+            wants = [self._confirm_start(tracks[i], boxes[j], left) for i, j in pairs]
+            slopes = iter(self._slopes([tracks[i].point for (i, _), w in zip(pairs, wants, strict=True) if w],
+                                       left, right))
+            for (i, j), want in zip(pairs, wants, strict=True):
+                taken[j] = True
+                confirmed[i] = self._confirm_end(tracks[i], boxes[j], next(slopes) if want else None, t_ns)
         for i, track in enumerate(tracks):
             # ships in line merge into one blob: it confirms every track whose point it covers
             if not confirmed[i] and any(_contains(db, track.point.u, track.point.v) for db in boxes):
@@ -180,6 +186,12 @@ class TrackTable:
                 self._birth(left, right, t_ns, db)
 
     def _confirm(self, track: Track, box: np.ndarray, left: np.ndarray, right: np.ndarray, t_ns: int) -> bool:
+        """Is the track confirmed by its box? (One track; `_associate` runs the halves for all.)"""
+        slope = self._slope(track.point, left, right) if self._confirm_start(track, box, left) else None
+        return self._confirm_end(track, box, slope, t_ns)
+
+    def _confirm_start(self, track: Track, box: np.ndarray, left: np.ndarray) -> bool:
+        """The first half of a track's confirmation by its box; whether it wants the slope test."""
         p = track.point
         if p.prediction() is None and (p.searching or not _contains(box, p.u, p.v)):
             # a point without a range history that is off the ship, or lost what it followed (a
@@ -187,10 +199,13 @@ class TrackTable:
             # (one with a history stays: it gets candidates from this box next pair)
             p.reanchor(*self._reference(left, box, p.s.window))
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
-        if track.status is TrackStatus.ACQUIRING and not p.searching:
-            slope = self._slope(p, left, right)
-            if slope is not None:
-                track.slopes.append(slope)
+        return track.status is TrackStatus.ACQUIRING and not p.searching
+
+    def _confirm_end(self, track: Track, box: np.ndarray, slope: float | None, t_ns: int) -> bool:
+        """The second half, with the slope test's result (None: not run or no slope): confirmed?"""
+        p = track.point
+        if slope is not None:
+            track.slopes.append(slope)
         d = p.disparity if p.disparity is not None else p.raw_disparity
         if d is not None and not self._on_the_sea(d, box):
             return False
@@ -278,6 +293,17 @@ class TrackTable:
     def _sea_slope(self) -> float:
         """Disparity growth per row of the sea below the horizon: L_B / h (flat-sea approximation)."""
         return self.rect.rig.baseline_m / max(self.site_height_m, 1.0)
+
+    def _slopes(self, points: list[TrackPoint], left: np.ndarray, right: np.ndarray) -> list[float | None]:
+        """`_slope` of each point, their matches answered together (edge.pointbatch.answer_all)."""
+        requests = [stereo_request(p.s, left, right, self.rect, p.u, p.v + dv, p.predicted_disparity(),
+                                   p.match_settings) for p in points for dv in (-SLOPE_ROWS, SLOPE_ROWS)]
+        answers = answer_all(requests)
+        out: list[float | None] = []
+        for above, below in zip(answers[0::2], answers[1::2], strict=True):
+            ok = above.valid and below.valid
+            out.append((below.disparity_px - above.disparity_px) / (2 * SLOPE_ROWS) if ok else None)
+        return out
 
     def _slope(self, p: TrackPoint, left: np.ndarray, right: np.ndarray) -> float | None:
         """Disparity change per row across the point: matches SLOPE_ROWS above and below it."""

@@ -36,7 +36,15 @@ from edge.anchor import line_fit, median, slope_sigma
 from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
-from edge.pointbatch import Follow, Steps, follow_request, run_one, stereo_request
+from edge.pointbatch import (
+    Follow,
+    Steps,
+    follow_request,
+    follow_settings,
+    match_settings,
+    run_one,
+    stereo_request,
+)
 from edge.pointfilter import MAX_SHIP_SPEED_MPS, NOISE_WINDOW, PointFilter
 from edge.ranging import Designs
 
@@ -99,6 +107,8 @@ class TrackPoint(PointFilter):
         super().__init__(settings if window in (None, settings.window) else replace(settings, window=window),
                          designs)
         self.u, self.v = u, v
+        self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)  # the core requests' knobs, kept
+        self.match_settings = match_settings(self.s)
         self.template: np.ndarray | None = None  # window around template_at in the last image
         self.template_at = (0, 0, 0.0, 0.0)  # its patch origin, and the point (u, v) then
         self.template_reach = 0.0  # px the point may move before the patch is too small
@@ -190,7 +200,7 @@ class TrackPoint(PointFilter):
         if (prediction is None and self.s.filter != "none") or not self._in_image(rect, round(u), round(v)):
             return False  # without a prediction any point would do: better lose the track than jump
         pred = None if prediction is None else prediction[0]
-        m = yield stereo_request(self.s, left, right, rect, u, v, pred)
+        m = yield stereo_request(self.s, left, right, rect, u, v, pred, self.match_settings)
         if prediction is not None:
             tolerance = self.s.gate_sigma * math.hypot(prediction[1], self.noise_px)
             if not (m.valid and abs(m.disparity_px - prediction[0]) <= tolerance):
@@ -224,7 +234,8 @@ class TrackPoint(PointFilter):
         x0, y0, tx, ty = self.template_at
         h_patch, w_patch = self.template.shape
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
-        return follow_request(self.s, self.template, current, tx - x0, ty - y0, pu - tx, FOLLOW_MAX_SIGMA_PX)
+        return follow_request(self.s, self.template, current, tx - x0, ty - y0, pu - tx, FOLLOW_MAX_SIGMA_PX,
+                              self.follow_settings)
 
     def _off_track(self, found: PointTrack, pu: float) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
@@ -262,7 +273,8 @@ class TrackPoint(PointFilter):
         worse = len(costs) >= 2 and costs[-1] > 2.0 * min(costs)
         if self.template is None or self.template_age >= TEMPLATE_REFRESH_S * self.s.fps or worse:
             self._take_template(left, rect)
-        m = yield stereo_request(self.s, left, right, rect, self.u, self.v, self.predicted_disparity())
+        m = yield stereo_request(self.s, left, right, rect, self.u, self.v, self.predicted_disparity(),
+                                 self.match_settings)
         self.match = m
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)
@@ -309,4 +321,4 @@ class TrackPoint(PointFilter):
     def match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
                  pred: float | None) -> Match:
         """The right match of left point (u, v), narrowed to `pred` when given (per point)."""
-        return stereo_request(self.s, left, right, rect, u, v, pred).run()
+        return stereo_request(self.s, left, right, rect, u, v, pred, self.match_settings).run()

@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from edge.core.batchsubpix import gauss6_q8_batch, parabola3_q8
 from edge.core.costs import COSTS
 from edge.core.match import (
     SUBPIXEL_METHODS,
@@ -38,13 +39,17 @@ from edge.core.match import (
     Match,
     check_images,
     finish_match,
+    match_gate,
     match_point,
     round_half_away,
     search_range,
 )
 from edge.core.refpoint import FollowSite, PointTrack, finish_follow, follow_site, texture_sigmas, track_point
 
-_NO_COST = np.iinfo(np.int64).max  # border padding of the cost squares (never a local minimum's rival)
+# from this many follows on, their parabola fits are vectorised (_axis_fits: ~25 numpy calls); fewer
+# fit them one by one off the cost squares (finish_follow's own path; the same values)
+AXIS_FITS_MIN = 5
+_NO_COST = np.iinfo(np.int64).max  # above every cost: masks entries out of a minimum
 _MATCH_SUBPIXEL = inspect.signature(match_point).parameters["subpixel"].default  # match_points follows it
 
 
@@ -59,13 +64,15 @@ def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") 
     nv, nu = height - h + 1, width - w + 1
     # cross-correlation: one product per item of the template's columns with all its rows of
     # windows, [k, j] = sum_i T[i, k] R[v + i, j]; the diagonal sums over k give sum T*R at u = j - k.
-    # Every partial sum is an integer <= h w 255^2: float32 holds them exactly up to 2**24 (windows
-    # up to 16 x 16), which halves the product's cost; larger windows take float64
-    exact = np.float32 if h * w * 255 * 255 < 2**24 else np.float64
+    # A product entry is an integer <= h 255^2 and a diagonal sum one <= h w 255^2: float32 holds
+    # them exactly below 2**24, which halves the product's cost, so the product is float32 for any
+    # window up to 258 rows, and the diagonal sums are too up to 16 x 16 (float64 beyond)
+    exact = np.float32 if h * 255 * 255 < 2**24 else np.float64
+    summed = np.float32 if h * w * 255 * 255 < 2**24 else np.float64
     rows = sliding_window_view(regions.astype(exact), h, axis=1).transpose(0, 3, 1, 2)
     prod = np.matmul(templates.astype(exact).transpose(0, 2, 1), rows.reshape(n_items, h, nv * width))
     prod = prod.reshape(n_items, w, nv, width)
-    cross = prod[:, 0, :, :nu].copy()
+    cross = prod[:, 0, :, :nu].astype(summed)
     for k in range(1, w):
         cross += prod[:, k, :, k:k + nu]
     t = templates.astype(np.float64)
@@ -88,10 +95,12 @@ def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") 
 def _second_ratios(costs: np.ndarray, iy: np.ndarray, ix: np.ndarray) -> list[float]:
     """`refpoint._second_ratio_2d` of each (n, s, s) cost square around its (iy, ix)."""
     n, s = costs.shape[0], costs.shape[1]
-    padded = np.pad(costs, ((0, 0), (1, 1), (1, 1)), constant_values=_NO_COST)
-    c = padded[:, 1:-1, 1:-1]
-    is_min = ((c <= padded[:, :-2, 1:-1]) & (c <= padded[:, 2:, 1:-1])
-              & (c <= padded[:, 1:-1, :-2]) & (c <= padded[:, 1:-1, 2:]))
+    c = costs
+    is_min = np.ones(c.shape, dtype=bool)           # not above any 4-neighbour (none beyond the edges)
+    is_min[:, 1:] &= c[:, 1:] <= c[:, :-1]
+    is_min[:, :-1] &= c[:, :-1] <= c[:, 1:]
+    is_min[:, :, 1:] &= c[:, :, 1:] <= c[:, :, :-1]
+    is_min[:, :, :-1] &= c[:, :, :-1] <= c[:, :, 1:]
     k = np.arange(s)
     near = ((np.abs(k[None, :] - iy[:, None]) <= 1)[:, :, None]
             & (np.abs(k[None, :] - ix[:, None]) <= 1)[:, None, :])
@@ -126,19 +135,20 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
     h, r = window // 2, search_radius
     side = window + 2 * r
     fast: list[tuple[int, FollowSite]] = []
-    regions, searched = [], []
+    regions = np.empty((n, window + 2, window + 2), np.uint8)     # the windows + 1 all round
+    searched = np.empty((n, side, side), np.uint8)                 # the search squares
     for i in range(n):
         site = follow_site(prevs[i], curs[i], xs[i], ys[i], window, search_radius, predicted_dxs[i],
                            predicted_dys[i])
         if isinstance(site, PointTrack):
             out[i] = site
             continue
-        xi, yi, x0 = site.xi, site.yi, site.xi + site.pu - r - h
+        xi, yi, x0, y0 = site.xi, site.yi, site.xi + site.pu - r - h, site.yi + site.pv - r - h
+        regions[len(fast)] = prevs[i][yi - h - 1:yi + h + 2, xi - h - 1:xi + h + 2]
+        searched[len(fast)] = curs[i][y0:y0 + side, x0:x0 + side]
         fast.append((i, site))
-        regions.append(prevs[i][yi - h - 1:yi + h + 2, xi - h - 1:xi + h + 2])    # window + 1 all round
-        searched.append(curs[i][yi + site.pv - r - h:yi + site.pv - r - h + side, x0:x0 + side])
     if fast:
-        region = np.stack(regions).astype(np.int32)
+        region = regions[:len(fast)].astype(np.int32)
         gx = region[:, 1:-1, 2:] - region[:, 1:-1, :-2]          # = gradient_energy of the window rows
         gy = region[:, 2:, 1:-1] - region[:, :-2, 1:-1]          # ... and of its columns
         energy_x, energy_y = (gx * gx).sum(axis=(1, 2)).tolist(), (gy * gy).sum(axis=(1, 2)).tolist()
@@ -152,17 +162,44 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
                 out[i] = track_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=predicted_dxs[i],
                                      predicted_dy=predicted_dys[i], **kw)
         if keep:
-            costs = batch_costs(region[keep, 1:-1, 1:-1], np.stack([searched[k] for k in keep]), "zssd")
+            every = len(keep) == len(fast)
+            costs = batch_costs(region[:, 1:-1, 1:-1] if every else region[keep, 1:-1, 1:-1],
+                                searched[:len(fast)] if every else searched[keep], "zssd")
             flat_best = costs.reshape(len(keep), -1).argmin(axis=1)
             iy, ix = np.divmod(flat_best, 2 * r + 1)
             ratios = _second_ratios(costs, iy, ix)
+            sites = [fast[k][1] for k in keep]
+            vectorised = subpixel == "parabola" and len(keep) >= AXIS_FITS_MIN
+            fits = _axis_fits(costs, iy, ix, sites, r) if vectorised else None
             arith = CostArithmetic("int", "zssd")
             for j, (k, v, u) in enumerate(zip(keep, iy.tolist(), ix.tolist(), strict=True)):
                 i, site = fast[k]
                 out[i] = finish_follow(prevs[i], curs[i], site, costs[j], sigmas[j], arith, window=window,
                                        search_radius=search_radius, subpixel=subpixel, min_ratio=min_ratio,
-                                       best=(v, u), ratio=ratios[j], curves_from_costs=True)
+                                       best=(v, u), ratio=ratios[j], curves_from_costs=True,
+                                       axis_fits=None if fits is None else fits[j])
     return out  # type: ignore[return-value]
+
+
+def _axis_fits(costs: np.ndarray, iy: np.ndarray, ix: np.ndarray, sites: list[FollowSite],
+               r: int) -> list[tuple[list, list] | None]:
+    """The parabola fits `finish_follow` may need, off each (n, s, s) cost square around its minimum
+    (iy, ix), as `refine` finds them: ([[Q8 fits along x on the rows iy - 1 .. iy + 1], [... along y
+    on the columns ix - 1 .. ix + 1]], [[whether each has one], [...]]). None for a minimum on the
+    square's edge (finish_follow refuses it before any fit)."""
+    n, s = costs.shape[0], costs.shape[1]
+    cy, cx = np.minimum(np.maximum(iy, 1), s - 2), np.minimum(np.maximum(ix, 1), s - 2)
+    near = np.arange(-1, 2)
+    block = costs[np.arange(n)[:, None, None], (cy[:, None] + near)[:, :, None],
+                  (cx[:, None] + near)[:, None, :]]                               # (n, 3, 3)
+    # the row fits take d = -u ascending (u = u0 + 1, u0, u0 - 1) around d0 = -u0; the columns alike
+    curves = np.stack((block[:, :, ::-1], block[:, ::-1, :].transpose(0, 2, 1)), axis=1)    # (n, 2, 3, 3)
+    d0 = np.stack((np.array([site.pu for site in sites]) - r + ix,
+                   np.array([site.pv for site in sites]) - r + iy), axis=1)
+    q8, ok = parabola3_q8(curves, -d0[:, :, None])
+    edge = ((iy != cy) | (ix != cx)).tolist()
+    fits = zip(q8.tolist(), ok.tolist(), strict=True)
+    return [None if e else fit for e, fit in zip(edge, fits, strict=True)]
 
 
 def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: Sequence[float],
@@ -199,7 +236,7 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
         gathered.append(lefts[i][yi - h:yi + h + 1, xi - h - 1:xi + h + 2])
     if not sites:
         return out  # type: ignore[return-value]
-    rows = np.stack(gathered).astype(np.int32)
+    rows = np.array(gathered, dtype=np.int32)
     g = rows[:, :, 2:] - rows[:, :, :-2]
     energies = (g * g).sum(axis=(1, 2)).tolist()
     searches = []
@@ -216,22 +253,48 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
             continue
         searches.append((i, xf, yf, xi, yi, lo, hi, sigma, g2 / 4.0))
     arith = CostArithmetic("int", cost)
+    searched = []                                     # (item, its curve, k0, ratio, bands)
     for n, items in _share_curves(searches, [r.shape[1] for r in rights], h).items():
-        templates = np.stack([lefts[it[0]][it[4] - h:it[4] + h + 1, it[3] - h:it[3] + h + 1] for it in items])
-        bands = np.stack([rights[i][yi - h:yi + h + 1, xi - h - start - n + 1:xi + h + 1 - start]
-                          for i, _, _, xi, yi, *_, start in items])
+        templates = np.empty((len(items), window, window), np.uint8)
+        bands = np.empty((len(items), window, window + n - 1), np.uint8)
+        for k, (i, _, _, xi, yi, *_, start) in enumerate(items):
+            templates[k] = lefts[i][yi - h:yi + h + 1, xi - h:xi + h + 1]
+            bands[k] = rights[i][yi - h:yi + h + 1, xi - h - start - n + 1:xi + h + 1 - start]
         curves = batch_costs(templates, bands, cost)[:, 0, ::-1]       # ascending disparity from lo'
         first = np.array([it[5] - it[9] for it in items])
         last = np.array([it[6] - it[9] for it in items])
         k0s, ratios = _curve_minima(curves, first, last)
         for it, curve, a, k0, ratio in zip(items, curves, first.tolist(), k0s, ratios, strict=True):
-            i, xf, yf, xi, yi, lo, hi, sigma, texture, _ = it
-            rows = slice(yi - h, yi + h + 1)
-            out[i] = finish_match(arith, lefts[i][rows], rights[i][rows], xf, yf, xi, lo,
-                                  curve[a:a + hi - lo + 1], sigma, texture, width=lefts[i].shape[1],
-                                  subpixel=subpixel, min_ratio=min_ratio, k0=k0, ratio=ratio,
-                                  noise_dn=noise_dn)
+            i, rows = it[0], slice(it[4] - h, it[4] + h + 1)
+            row_bands = (lefts[i][rows], rights[i][rows])
+            searched.append((it, curve[a:a + it[6] - it[5] + 1], k0, ratio, row_bands))
+    refined = _refine_gauss(searched, h, [left.shape[1] for left in lefts], subpixel, cost, min_ratio)
+    for (it, curve, k0, ratio, (a_band, b_band)), value in zip(searched, refined, strict=True):
+        i, xf, yf, xi, yi, lo, hi, sigma, texture, _ = it
+        out[i] = finish_match(arith, a_band, b_band, xf, yf, xi, lo, curve, sigma, texture,
+                              width=lefts[i].shape[1], subpixel=subpixel, min_ratio=min_ratio, k0=k0,
+                              ratio=ratio, noise_dn=noise_dn,
+                              refined=None if value is None else (value, ""))
     return out  # type: ignore[return-value]
+
+
+def _refine_gauss(searched: list[tuple], h: int, widths: list[int], subpixel: str, cost: str,
+                  min_ratio: float) -> list[int | None]:
+    """`refine`'s Q8 result of each searched point that passes `match_gate` and takes the six-pass
+    Gaussian cancellation, all in one batch (edge.core.batchsubpix); None where finish_match is to
+    run `refine` itself (other methods, a failed gate, or no Gaussian fit: its parabola fallback)."""
+    out: list[int | None] = [None] * len(searched)
+    if subpixel != "cancel6-gauss" or cost != "zssd":
+        return out
+    todo = [j for j, (it, curve, k0, ratio, _) in enumerate(searched)
+            if not match_gate(2 * h + 1, it[3], it[5], len(curve), k0, ratio, width=widths[it[0]],
+                              subpixel=subpixel, min_ratio=min_ratio)]
+    values = gauss6_q8_batch([searched[j][4][0] for j in todo], [searched[j][4][1] for j in todo],
+                             [searched[j][0][3] for j in todo],
+                             [searched[j][0][5] + searched[j][2] for j in todo])
+    for j, value in zip(todo, values, strict=True):
+        out[j] = value
+    return out
 
 
 def _share_curves(searches: list[tuple], widths: list[int], h: int) -> dict[int, list[tuple]]:

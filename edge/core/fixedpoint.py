@@ -128,7 +128,8 @@ def saturate(value: int, bits: int = 32) -> int:
 def to_q(value: float, bits: int) -> int:
     """Nearest Q(bits) integer of a float (half away from zero)."""
     scaled = float(value) * (1 << bits)
-    return int(np.sign(scaled) * np.floor(abs(scaled) + 0.5))
+    mag = math.floor(abs(scaled) + 0.5)          # an int; ValueError / OverflowError as numpy's int()
+    return mag if scaled >= 0 else -mag
 
 
 def from_q(value: int, bits: int) -> float:

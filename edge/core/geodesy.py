@@ -17,6 +17,7 @@ same at both ends to well within a centimetre, so it cancels.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -56,8 +57,10 @@ def ecef_to_geodetic(xyz_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     return np.degrees(lat), np.degrees(np.arctan2(y, x)), h
 
 
+@functools.lru_cache(maxsize=8)
 def world_axes(site: Site) -> np.ndarray:
-    """3x3 matrix whose rows are the world X (right), Y (down), Z (forward) axes in ECEF."""
+    """3x3 matrix whose rows are the world X (right), Y (down), Z (forward) axes in ECEF.
+    Computed once per site (the pipeline converts every pair's fixes with it): read-only."""
     lat, lon = math.radians(site.lat_deg), math.radians(site.lon_deg)
     east = np.array([-math.sin(lon), math.cos(lon), 0.0])
     north = np.array([-math.sin(lat) * math.cos(lon), -math.sin(lat) * math.sin(lon), math.cos(lat)])
@@ -65,18 +68,26 @@ def world_axes(site: Site) -> np.ndarray:
     heading = math.radians(site.heading_deg)
     forward = north * math.cos(heading) + east * math.sin(heading)
     right = east * math.cos(heading) - north * math.sin(heading)
-    return np.stack([right, -up, forward])
+    axes = np.stack([right, -up, forward])
+    axes.setflags(write=False)
+    return axes
+
+
+@functools.lru_cache(maxsize=8)
+def _site_ecef(site: Site) -> np.ndarray:
+    """The site's own ECEF position, once per site (read-only)."""
+    origin = geodetic_to_ecef(site.lat_deg, site.lon_deg, site.height_m)
+    origin.setflags(write=False)
+    return origin
 
 
 def geodetic_to_world(
     lat_deg: np.ndarray, lon_deg: np.ndarray, height_m: np.ndarray, site: Site
 ) -> np.ndarray:
     """WGS-84 points -> (..., 3) world-frame metres of the rig at `site`."""
-    origin = geodetic_to_ecef(site.lat_deg, site.lon_deg, site.height_m)
-    return (geodetic_to_ecef(lat_deg, lon_deg, height_m) - origin) @ world_axes(site).T
+    return (geodetic_to_ecef(lat_deg, lon_deg, height_m) - _site_ecef(site)) @ world_axes(site).T
 
 
 def world_to_geodetic(points_m: np.ndarray, site: Site) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(..., 3) world-frame metres -> (lat_deg, lon_deg, height_m) on WGS-84."""
-    origin = geodetic_to_ecef(site.lat_deg, site.lon_deg, site.height_m)
-    return ecef_to_geodetic(np.asarray(points_m, dtype=np.float64) @ world_axes(site) + origin)
+    return ecef_to_geodetic(np.asarray(points_m, dtype=np.float64) @ world_axes(site) + _site_ecef(site))

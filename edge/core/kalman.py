@@ -67,6 +67,7 @@ eq. K.3 in `edge.core.kalman_design`, from the steady-state error's correlation,
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from bisect import bisect_left
 from dataclasses import dataclass
@@ -80,6 +81,12 @@ __all__ = ["Q8_ROUNDING_VAR", "DisparityKalman", "DisparityKalmanFloat", "Estima
            "design_kalman"]
 
 Q8_ROUNDING_VAR = 1.0 / (12 * (1 << SUBPIX_BITS) ** 2)   # output rounded to 1/256 px: uniform, var LSB^2/12
+
+
+def _sqrt(x: float) -> float:
+    """np.sqrt of a Python float without numpy's per-call overhead (both round correctly, IEEE 754);
+    NaN for a negative argument as numpy gives it (math.sqrt would raise)."""
+    return math.sqrt(x) if x >= 0 else math.nan
 
 
 @dataclass(frozen=True)
@@ -156,7 +163,7 @@ class _CVFilter(ABC):
         """One frame: a disparity measurement in px, or None/NaN when the matcher had none."""
         d = self.design
         self._frame += 1
-        have = z_px is not None and bool(np.isfinite(z_px))
+        have = z_px is not None and math.isfinite(z_px)
         if not self.running:
             if have:
                 self._init.append((self._frame, self._quantise(float(z_px))))
@@ -216,7 +223,7 @@ class _CVFilter(ABC):
         factor (eq. K.3). The speed a fix reports rests on it."""
         d = self.design
         pvv = d.cov[min(self.k, len(d.cov) - 1)][2] + self.misses * (d.sigma_accel_pxps2 / d.fs_hz**2) ** 2
-        return float(d.coverage * np.sqrt(pvv) * d.fs_hz)
+        return d.coverage * _sqrt(pvv) * d.fs_hz
 
     def sigma_px(self) -> float:
         """Predicted 1-sigma of the current estimate (grows while coasting, eq. K.6)."""
@@ -226,7 +233,7 @@ class _CVFilter(ABC):
         var = pdd + m * pdv2 + m * m * pvv + d.coast_q[min(m, len(d.coast_q) - 1)]
         # eq. K.1: random part (times the coverage factor, eq. K.3), bias floor, Q8 output rounding
         var = d.coverage**2 * var + d.sigma_floor_px**2 + Q8_ROUNDING_VAR
-        return float(np.sqrt(var))
+        return _sqrt(var)
 
 
 class DisparityKalman(_CVFilter):

@@ -81,6 +81,7 @@ IMPLS = ("int", "int-ref", "float")
 DEFAULT_SEARCH_RADIUS = 4
 REFIT_MAX_SIGMA_PX = 0.08          # subpixel="refit" refits only up to this predicted sigma (module doc)
 REFIT_SMOOTH_MAX_SIGMA_PX = 0.01   # ... and smooths both views by [1 6 1]/8 up to this one
+NO_BRACKET = "cost curve does not bracket the minimum (den <= 0)"  # refine's parabola failure
 
 
 @dataclass(frozen=True)
@@ -175,7 +176,7 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
     if method == "parabola":
         fit = arith.fit(costs[k0 - 1:k0 + 2], d0 - 1)
         if fit is None:
-            return None, "cost curve does not bracket the minimum (den <= 0)"
+            return None, NO_BRACKET
         return (fit if arith.is_float else sp.fit_to_q8(fit)), ""
     if method == "refit":
         method = "cancel6-gauss"
@@ -313,27 +314,24 @@ def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, wind
 def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xf: float, yf: float,
                  xi: int, lo: int, costs: np.ndarray, sigma: float, texture: float, *, width: int,
                  subpixel: str, min_ratio: float, k0: int | None = None, ratio: float | None = None,
-                 noise_dn: float = 1.0) -> Match:
-    """`match_point` after its integer search: the gates, the half-pixel border check and `refine`.
+                 noise_dn: float = 1.0, refined: tuple[float | int | None, str] | None = None) -> Match:
+    """`match_point` after its integer search: the gates (`match_gate`) and `refine`.
     `costs` in ascending disparity from lo for the window at column xi of the bands (image rows
     yi - h .. yi + h), `width` the images' width; k0 (the first minimum) and ratio
     (`second_best_ratio`) when the caller has them (edge.core.batchmatch computes them for many
-    points at once); noise_dn as in `match_point` (subpixel="refit" uses it)."""
-    h = a_band.shape[0] // 2
+    points at once), `refined` when it has `refine`'s result (edge.core.batchsubpix); noise_dn as
+    in `match_point` (subpixel="refit" uses it)."""
     k0 = int(np.argmin(costs)) if k0 is None else k0
     d0 = lo + k0
     best = float(costs[k0]) * (a_band.shape[0] ** 2 if arith.is_float and arith.cost == "zssd" else 1)
     ratio = second_best_ratio(costs, k0) if ratio is None else ratio
     extra = {"sigma_px": sigma, "texture": texture, "disparity_int": d0, "second_ratio": ratio, "cost": best}
-    if not 0 < k0 < len(costs) - 1:
-        return _invalid("minimum at the edge of the search range", xf, yf, **extra)
-    if ratio < min_ratio:
-        return _invalid(f"ambiguous: second-best cost only {ratio:.3f}x the best", xf, yf, **extra)
-    if subpixel not in ("parabola", "none") and (xi - h - 2 < 0 or xi + h + 3 >= width
-                                          or d0 + 2 > xi - h or d0 - 2 < xi + h + 4 - width):
-        return _invalid("half-pixel passes run off the image (point or match near the border)", xf, yf,
-                        **extra)
-    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel, sigma, noise_dn)
+    reason = match_gate(a_band.shape[0], xi, lo, len(costs), k0, ratio, width=width, subpixel=subpixel,
+                        min_ratio=min_ratio)
+    if reason:
+        return _invalid(reason, xf, yf, **extra)
+    value, reason = refine(arith, a_band, b_band, xi, lo, costs, k0, subpixel, sigma, noise_dn) \
+        if refined is None else refined
     if value is None:
         return _invalid(reason, xf, yf, **extra)
     if arith.is_float:
@@ -341,8 +339,25 @@ def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, 
     return Match(True, from_q(int(value), SUBPIX_BITS), best, sigma, "", int(value), d0, ratio,
                  texture, xf, yf)
 
+
+def match_gate(window: int, xi: int, lo: int, n_costs: int, k0: int, ratio: float, *, width: int,
+               subpixel: str, min_ratio: float) -> str:
+    """Why the search's minimum costs[k0] (d0 = lo + k0, window at column xi, images `width` wide)
+    gives no match ('' if it passes): at the edge of the search, ambiguous, or too near the border
+    for the half-pixel passes (columns xi - h - 2 .. xi + h + 3 in both images)."""
+    h, d0 = window // 2, lo + k0
+    if not 0 < k0 < n_costs - 1:
+        return "minimum at the edge of the search range"
+    if ratio < min_ratio:
+        return f"ambiguous: second-best cost only {ratio:.3f}x the best"
+    if subpixel not in ("parabola", "none") and (xi - h - 2 < 0 or xi + h + 3 >= width
+                                                 or d0 + 2 > xi - h or d0 - 2 < xi + h + 4 - width):
+        return "half-pixel passes run off the image (point or match near the border)"
+    return ""
+
+
 match_point_float = partial(match_point, impl="float")
 match_point_float.__doc__ = "Float64 reference of `match_point` (impl='float')."
 
-__all__ = ["CostArithmetic", "Match", "check_images", "finish_match", "match_point", "match_point_float",
-           "refine", "round_half_away", "second_best_ratio", "search_range"]
+__all__ = ["CostArithmetic", "Match", "check_images", "finish_match", "match_gate", "match_point",
+           "match_point_float", "refine", "round_half_away", "second_best_ratio", "search_range"]

@@ -28,7 +28,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from edge.core.costs import cost_curve, gradient_energy
 from edge.core.fixedpoint import SUBPIX_BITS, from_q
-from edge.core.match import CostArithmetic, check_images, refine, round_half_away
+from edge.core.match import NO_BRACKET, CostArithmetic, check_images, refine, round_half_away
 
 
 @dataclass(frozen=True)
@@ -163,13 +163,16 @@ def track_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window
 def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np.ndarray,
                   sigmas: tuple[float, float], arith: CostArithmetic, *, window: int, search_radius: int,
                   subpixel: str, min_ratio: float, best: tuple[int, int] | None = None,
-                  ratio: float | None = None, curves_from_costs: bool = False) -> PointTrack:
+                  ratio: float | None = None, curves_from_costs: bool = False,
+                  axis_fits: tuple[list, list] | None = None) -> PointTrack:
     """`track_point` after the integer search: validity gates and the separable sub-pixel fits.
 
     costs[v index, u index] is the (2r+1)^2 cost square; `best` (the (v, u) index of its first
     minimum) and `ratio` (its second-best ratio) when already known. curves_from_costs: take the
     parabola fits' 3-point curves from the square (the same integers: ZSSD of the transposed
-    windows is that of the windows) instead of recomputing them."""
+    windows is that of the windows) instead of recomputing them. axis_fits (parabola only): those
+    fits already made, `refine`'s Q8 values ([[rows v0 - 1 .. v0 + 1], [columns u0 - 1 .. u0 + 1]],
+    [the same: whether each has one]); edge.core.batchmatch fits many points at once."""
     xf, yf, xi, yi = site.xf, site.yf, site.xi, site.yi
     sx, sy = sigmas
     h, r = window // 2, search_radius
@@ -187,6 +190,8 @@ def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np
     from_costs = curves_from_costs and subpixel == "parabola"
 
     def along_x(v: int) -> tuple[float | None, str]:      # motion u on the rows at offset v
+        if axis_fits is not None and subpixel == "parabola":
+            return _negated(_q8_fit(axis_fits[0][0][v - v0 + 1], axis_fits[1][0][v - v0 + 1]))
         b_rows = cur[yi + v - h:yi + v + h + 1]
         if from_costs:                                     # d = -u ascending: u = u0+1, u0, u0-1
             k = v - site.pv + r
@@ -194,6 +199,8 @@ def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np
         return _negated(_axis_fit(arith, a_rows, b_rows, xi, -u0, subpixel))
 
     def along_y(u: int) -> tuple[float | None, str]:      # motion v on the columns at offset u
+        if axis_fits is not None and subpixel == "parabola":
+            return _negated(_q8_fit(axis_fits[0][1][u - u0 + 1], axis_fits[1][1][u - u0 + 1]))
         a_cols, b_cols = prev_t[xi - h:xi + h + 1], cur_t[xi + u - h:xi + u + h + 1]
         if from_costs:
             k = u - site.pu + r
@@ -216,6 +223,11 @@ def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np
     v = v_a + abs(tx) * (v_b - v_a)
     cost = float(costs[iy, ix]) * (window * window if arith.is_float else 1)
     return PointTrack(True, xf + u, yf + v, u, v, cost, sx, sy, "")
+
+
+def _q8_fit(value: int, ok: bool) -> tuple[float | None, str]:
+    """`_curve_fit`'s result from refine's Q8 parabola fit (not ok: the curve brackets no minimum)."""
+    return (from_q(value, SUBPIX_BITS), "") if ok else (None, NO_BRACKET)
 
 
 def _negated(fit: tuple[float | None, str]) -> tuple[float | None, str]:

@@ -112,6 +112,22 @@ def test_a_searching_point_restarts_on_its_ship_only_without_a_range_history() -
             assert point.searching and (point.u, point.v) == before
 
 
+def test_slopes_of_many_points_equal_each_points_slope() -> None:
+    """The association's slope tests answered together (batched when three or more share settings)
+    give each point's own `_slope`, with and without a prediction, valid or not (flat rows)."""
+    table = _table()
+    left, right = _pair(lambda v: 10.0 + 0.05 * v)
+    left[250:, :], right[250:, :] = 120, 120                 # no texture: no match, no slope
+    points = [TrackPoint(float(u), float(v), table.ps, table.designs)
+              for u, v in [(150, 100), (200.5, 120.3), (260, 140), (310.7, 160), (180, 262), (120, 90)]]
+    for p in points[:3]:
+        for _ in range(8):
+            p.step(left, right, table.rect)                   # these have a prediction
+    got = table._slopes(points, left, right)
+    assert got == [table._slope(p, left, right) for p in points]
+    assert sum(s is not None for s in got) >= 4 and got[4] is None
+
+
 @pytest.mark.parametrize("sea", [True, False])
 def test_slope_tells_the_sea_from_a_ship_side(sea: bool) -> None:
     """The sea's disparity grows by L_B / h per row below the horizon (flat-sea approximation,

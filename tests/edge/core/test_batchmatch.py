@@ -34,8 +34,8 @@ def _views(seed: int, n: int, flat_share: float = 0.0) -> tuple[list[np.ndarray]
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.integers(1, 8), st.integers(1, 14), st.integers(0, 12),
-       st.integers(0, 12))
+@given(st.integers(0, 2**32 - 1), st.sampled_from([1, 2, 3, 5, 7, 8, 11, 14]), st.integers(1, 14),
+       st.integers(0, 12), st.integers(0, 12))
 def test_batch_costs_are_the_reference_integers(seed: int, half: int, n_items: int, extra_rows: int,
                                                 extra_cols: int) -> None:
     rng = np.random.default_rng(seed)
