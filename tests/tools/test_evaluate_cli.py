@@ -1,0 +1,49 @@
+"""tools/evaluate on a short real recording: exit status 0 when every pair was processed, 1 (with the
+reason on stderr) when the pipeline abandoned pairs, since its figures then are not the pipeline's."""
+
+from __future__ import annotations
+
+import importlib.machinery
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+from edge.schema import load_yaml
+from edge.sim.batch import write_recording
+from edge.sim.scenario import scenario_from_dict, scenario_path
+from edge.sim.simulator import Simulation
+from edge.tracking import TrackTable
+
+EVALUATE = Path(__file__).resolve().parents[2] / "tools" / "evaluate"
+
+
+def _evaluate():
+    loader = importlib.machinery.SourceFileLoader("evaluate_tool", str(EVALUATE))
+    spec = importlib.util.spec_from_loader("evaluate_tool", loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def short_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = scenario_path("akashi-crossing")
+    sim = Simulation(scenario_from_dict(load_yaml(path), path, "akashi-crossing"), seed=0)
+    out = tmp_path_factory.mktemp("evaluate") / "rec"
+    write_recording(sim, out, frames=6, jobs=1)
+    return out
+
+
+def test_exit_status_says_whether_every_pair_was_processed(short_recording: Path, monkeypatch,
+                                                           capsys) -> None:
+    evaluate = _evaluate()
+    assert evaluate.main([str(short_recording), "--no-stages"]) == 0
+    assert "abandoned" not in capsys.readouterr().err
+
+    def boom(*_args, **_kwargs):
+        raise RuntimeError("injected")
+
+    monkeypatch.setattr(TrackTable, "step", boom)
+    assert evaluate.main([str(short_recording), "--no-stages"]) == 1
+    assert "6 pairs abandoned by the product pipeline" in capsys.readouterr().err
