@@ -2,24 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.machinery
-import importlib.util
-from pathlib import Path
-
 import pytest
+from helpers import load_tool
 
 from edge.calibration import calibration_from_dict
 from edge.sim.ships import ShipModel
 
-BENCH = Path(__file__).resolve().parents[2] / "tools" / "bench"
-
 
 def _bench():
-    loader = importlib.machinery.SourceFileLoader("bench_tool", str(BENCH))
-    spec = importlib.util.spec_from_loader("bench_tool", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return load_tool("bench")
 
 
 @pytest.mark.parametrize("size", [720, 2048])

@@ -3,11 +3,10 @@ reason on stderr) when the pipeline abandoned pairs, since its figures then are 
 
 from __future__ import annotations
 
-import importlib.machinery
-import importlib.util
 from pathlib import Path
 
 import pytest
+from helpers import load_tool
 
 from edge.schema import load_yaml
 from edge.sim.batch import write_recording
@@ -15,15 +14,9 @@ from edge.sim.scenario import scenario_from_dict, scenario_path
 from edge.sim.simulator import Simulation
 from edge.tracking import TrackTable
 
-EVALUATE = Path(__file__).resolve().parents[2] / "tools" / "evaluate"
-
 
 def _evaluate():
-    loader = importlib.machinery.SourceFileLoader("evaluate_tool", str(EVALUATE))
-    spec = importlib.util.spec_from_loader("evaluate_tool", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return load_tool("evaluate")
 
 
 @pytest.fixture(scope="module")
