@@ -318,17 +318,21 @@ class TrackTable:
 
     def _above_sea(self, p: TrackPoint) -> bool:
         """Does the point stand clear of the sea? Wave crests and troughs that persist and match
-        in stereo are *on* the sea; a ship's superstructure is metres above it. The height comes
-        from the triangulated point (eq. 4.1) against the curved sea below it; its 1-sigma is the
-        range error's share plus ROW_SIGMA_PX of the row."""
+        in stereo are *on* the sea; a ship's superstructure is metres above it (`height_m`)."""
+        height, sigma = self.height_m(p)
+        return height >= max(self.s.min_height_m, 3.0 * sigma)
+
+    def height_m(self, p: TrackPoint) -> tuple[float, float]:
+        """The point's height above the sea and its 1-sigma, m. The height comes from the
+        triangulated point (eq. 4.1) against the curved sea below it; its 1-sigma is the range
+        error's share plus ROW_SIGMA_PX of the row."""
         f, b = self.rect.f_px, self.rect.rig.baseline_m
         x, y = self.rect.rect_to_normalised(np.array([p.u, p.v]))
         z = f * b / p.disparity
         point = np.array([z * (x - 0.5 * p.disparity / f), z * y, z])
         height = float(height_above_sea_m(point, self.site_height_m))
         sigma_z = z * z * p.sigma_px / (f * b)
-        sigma = math.hypot(abs(y) * sigma_z, z * ROW_SIGMA_PX / f)
-        return height >= max(self.s.min_height_m, 3.0 * sigma)
+        return height, math.hypot(abs(y) * sigma_z, z * ROW_SIGMA_PX / f)
 
     def _sea_range(self, u: float, v: float) -> float:
         return sea_range_at(self.rect, self.site_height_m, u, v)

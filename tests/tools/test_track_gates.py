@@ -1,0 +1,43 @@
+"""tools/track-gates on a short simulated recording: every pair a track spends acquiring is charged to
+exactly one gate, so a track that turned T was held for exactly its time from birth to T."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from helpers import load_tool
+
+from edge.schema import load_yaml
+from edge.sim.batch import write_recording
+from edge.sim.scenario import scenario_from_dict, scenario_path
+from edge.sim.simulator import Simulation
+
+FRAMES = 14  # the freighter of akashi-crossing turns T about 1 s (10 pairs) after its birth
+
+
+@pytest.fixture(scope="module")
+def short_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = scenario_path("akashi-crossing")
+    sim = Simulation(scenario_from_dict(load_yaml(path), path, "akashi-crossing"), seed=0)
+    out = tmp_path_factory.mktemp("gates") / "rec"
+    write_recording(sim, out, frames=FRAMES, jobs=1)
+    return out
+
+
+def test_acquiring_time_is_charged_to_the_gates(short_recording: Path, capsys) -> None:
+    tool = load_tool("track-gates")
+    info = tool.run(short_recording, set(), None)
+    fps = 10.0
+    turned = [rec for rec in info.values() if rec["T"] is not None]
+    assert turned, "the freighter should turn T within the recording"
+    for rec in info.values():
+        charged = sum(rec["gates"].values())
+        end = rec["T"] if rec["T"] is not None else rec["dropped"]
+        if end is None:  # still acquiring at the end: charged for every pair since birth
+            end = (FRAMES - 1) / fps + 1.0 / fps
+        assert charged == pytest.approx(end - rec["born"], abs=0.5 / fps)
+        assert rec["gates"].get("passed", 0.0) <= 1.0 / fps + 1e-9  # all gates passed: T next pair at most
+    assert tool.main([str(short_recording), "--tracks", "1", "--pairs", "0", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "id1" in out and "track" in out
