@@ -118,6 +118,20 @@ def log2_q(values: np.ndarray) -> np.ndarray:
     return (e << LOG_BITS) + pair[..., 0] + ((pair[..., 1] * rest) >> 30)
 
 
+_LOG2_LIST = LOG2_TABLE.tolist()
+
+
+def log2_q_int(value: int) -> int:
+    """`log2_q` of one positive Python int below 2^62, bit-identical, without numpy's per-call
+    overhead (count-leading-zeros by int.bit_length)."""
+    e = value.bit_length() - 1
+    frac = (value << (62 - e)) - (1 << 62)
+    low_bits = 62 - LOG_TABLE_BITS
+    idx = frac >> low_bits
+    base, step = _LOG2_LIST[idx], _LOG2_LIST[idx + 1] - _LOG2_LIST[idx]
+    return (e << LOG_BITS) + base + ((step * ((frac >> (low_bits - 30)) & ((1 << 30) - 1))) >> 30)
+
+
 def saturate(value: int, bits: int = 32) -> int:
     """Clamp to the signed `bits`-bit range (saturate, never wrap)."""
     lo = -(1 << (bits - 1))

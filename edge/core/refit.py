@@ -44,8 +44,8 @@ and rounded once (|Rs| < 2^17, exact in float64). Every window sum (S1, S2 of ea
 cross sums) is one entry sum of the Gram matrix of [L | Rs | 1], exact integers below 2^53
 (N S2 < 2^50). Per fit, the N-scaled energies E(k) = N S2 - S1^2 and cross terms
 X(k) = N sum T C - S1_T S1_C are Python ints; the first and second differences of
-y = log2 E - 2 log2 X are the logs of two exact Q40 quotients (`_fit_q`, `fixedpoint`'s log2
-table, Q24), one division to Q10 per fit, and s + (rL - rR) / 2 is formed in Q11 and rounded
+y = log2 E - 2 log2 X are the logs of two exact Q40 quotients (`_fit_q`, `fixedpoint.log2_q_int`,
+Q24), one division to Q10 per fit, and s + (rL - rR) / 2 is formed in Q11 and rounded
 once to Q8. Float reference: float taps at the unrounded shift, float filter, sums and
 math.log2. Difference: 2^-11 (fits) + 2^-9 (final rounding) + the rounding of Rs (far below
 the noise) < 1/256 px; the refit moves by a small fraction of a change in s, so the float's
@@ -64,11 +64,10 @@ import numpy as np
 
 from edge.core.fixedpoint import (
     FIT_BITS,
-    LOG2_TABLE,
     LOG_BITS,
-    LOG_TABLE_BITS,
     SUBPIX_BITS,
     div_round,
+    log2_q_int,
     round_shift,
 )
 from edge.core.subpixel import gauss_fit_float
@@ -176,17 +175,6 @@ def _sums(ls: np.ndarray, rs: np.ndarray) -> list:
     return (q.T @ q).ravel()[_sum_index(ls.shape[0])].sum(axis=1).tolist()
 
 
-def _log2_int(v: int) -> int:
-    """Scalar `fixedpoint.log2_q` (Q24) of a positive int below 2^62 (bit-identical)."""
-    e = v.bit_length() - 1
-    frac = (v << (62 - e)) - (1 << 62)
-    low_bits = 62 - LOG_TABLE_BITS
-    idx = frac >> low_bits
-    base, step = _LOG2[idx], _LOG2[idx + 1] - _LOG2[idx]
-    return (e << LOG_BITS) + base + ((step * ((frac >> (low_bits - 30)) & ((1 << 30) - 1))) >> 30)
-
-
-_LOG2 = [int(v) for v in LOG2_TABLE]
 RATIO_BITS = 40                   # the two log arguments as Q40 quotients
 
 
@@ -208,8 +196,8 @@ def _fit_q(n_px: int, s1_t: int, s1_c: list, s2_c: list, cross: list) -> int | N
     q2 = ((em * ep * x02 * x02) << RATIO_BITS) // (e0 * e0 * xm2 * xp2)
     if not (0 < q1 < 1 << 62 and 1 << RATIO_BITS < q2 < 1 << 62):
         return None
-    num = _log2_int(q1) - (RATIO_BITS << LOG_BITS)
-    den = 2 * (_log2_int(q2) - (RATIO_BITS << LOG_BITS))
+    num = log2_q_int(q1) - (RATIO_BITS << LOG_BITS)
+    den = 2 * (log2_q_int(q2) - (RATIO_BITS << LOG_BITS))
     if den <= 0 or abs(num) > den:
         return None
     return div_round(num << FIT_BITS, den)

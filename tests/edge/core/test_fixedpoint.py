@@ -65,3 +65,8 @@ def test_scales_are_consistent() -> None:
     assert fp.SUBPIX_ONE == 256 and fp.FIT_BITS > fp.SUBPIX_BITS
     assert fp.BIQUAD_STATE_BITS == fp.SUBPIX_BITS + fp.BIQUAD_COEF_BITS
     assert fp.AB_ONE == 1 << 24
+
+
+@given(st.integers(1, (1 << 62) - 1))
+def test_scalar_log2_is_bit_identical_to_the_vector_one(v: int) -> None:
+    assert fp.log2_q_int(v) == int(fp.log2_q(np.array([v], dtype=np.int64))[0])

@@ -1,4 +1,4 @@
-"""Shift-and-refit (edge/core/refit.py): interpolator taps, the integer log, the refit's pull
+"""Shift-and-refit (edge/core/refit.py): interpolator taps, the refit's pull
 towards the truth from a wrong start, integer vs float, borders, and the acceptance bounds of
 issue 4 with subpixel="refit" on exact-shift renders."""
 
@@ -11,7 +11,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from edge.core import refit as rf
-from edge.core.fixedpoint import log2_q
 from edge.core.match import match_point
 from edge.core.synth import Condition, make_scene, render_pair, sweep
 
@@ -36,11 +35,6 @@ def test_kernel_interpolates_band_limited_rows(q: float, freq: float, phase: flo
     row = np.cos(2 * np.pi * freq * j + phase)
     want = np.cos(2 * np.pi * freq * (-q) + phase)
     assert abs(float(rf.kernel_float(q) @ row) - want) < 2e-3      # passband: up to 1/4 cycle per px
-
-
-@given(st.integers(1, (1 << 62) - 1))
-def test_scalar_log2_is_bit_identical_to_the_vector_one(v: int) -> None:
-    assert rf._log2_int(v) == int(log2_q(np.array([v], dtype=np.int64))[0])
 
 
 def _pair(seed: int, k32: int, noise_dn: float = 0.0):
