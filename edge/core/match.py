@@ -163,14 +163,15 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
 
     Returns (Q8 int or float px, reason). Cancellation needs d0 - 2 .. d0 + 2 to be searchable."""
     d0 = d_lo + k0
-    if method == "refit" and sigma_px <= REFIT_MAX_SIGMA_PX:
-        first, reason = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel")
-        step = refit_float if arith.is_float else refit_q8
-        noise = noise_dn if sigma_px <= REFIT_SMOOTH_MAX_SIGMA_PX else None
-        value = None if first is None else step(a_band, b_band, xa, first, noise)
-        if value is None:                   # near the border or no interior minimum: the six passes
-            return refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel6-gauss")
-        return value, ""
+    if method == "refit":
+        if sigma_px <= REFIT_MAX_SIGMA_PX:
+            first, _ = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel")
+            step = refit_float if arith.is_float else refit_q8
+            noise = noise_dn if sigma_px <= REFIT_SMOOTH_MAX_SIGMA_PX else None
+            value = None if first is None else step(a_band, b_band, xa, first, noise)
+            if value is not None:
+                return value, ""
+        method = "cancel6-gauss"            # noise-dominated, near the border or no minimum: six passes
     if method == "none":
         return (float(d0) if arith.is_float else d0 << SUBPIX_BITS), ""
     if method == "parabola":
@@ -178,8 +179,6 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
         if fit is None:
             return None, NO_BRACKET
         return (fit if arith.is_float else sp.fit_to_q8(fit)), ""
-    if method == "refit":
-        method = "cancel6-gauss"
     if method == "cancel6-gauss" and arith.cost == "zssd":
         value = _gauss6(arith, a_band, b_band, xa, d0)
         if value is not None:
