@@ -190,7 +190,7 @@ class Pipeline:
         # the 1-sigma of Z' = -f B d' / d^2 and of X' from the filters' rate sigmas (inf: not known,
         # as with the Butterworth filter): a far, noisy track's speed, or the image motion's right
         # after a jump, would be read as tens of knots; withheld instead, as TTM/Modbus allow
-        d_rate_sd = np.array([_known_or_inf(t.point.rate_sigma_pxps) for t in live])
+        d_rate_sd = np.array([t.point.rate_sigma_pxps for t in live])
         u_rate_sd = np.array([t.point.u_rate_sigma_pxps for t in live])
         with np.errstate(invalid="ignore"):  # inf x 0 on the optical axis: nan, which is not <= a bound
             vz_sd = f * b * d_rate_sd / d**2
@@ -217,10 +217,6 @@ class Pipeline:
         if key not in self._logged:
             self._logged.add(key)
             log.warning(msg, *args)
-
-
-def _known_or_inf(value: float | None) -> float:
-    return math.inf if value is None else value
 
 
 def stage_pipelines(calibration: Calibration, config: PipelineConfig | None = None, *, fps: float = 10.0,

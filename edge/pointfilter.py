@@ -47,8 +47,7 @@ class PointFilter:
         self.noise_px = settings.sigma_meas_px  # the Kalman design level in use
         self.memory: tuple[int, float, float, float] | None = None  # last accepted (frame, d, d', sigma)
         self.recent: deque[float] = deque(maxlen=NOISE_WINDOW)
-        self._appended = 0  # raw disparities appended to `recent` so far (keys the scatter's cache)
-        self._scatter: tuple[int, float | None] = (-1, None)  # (_appended, scatter_px()) last computed
+        self._scatter: tuple[float | None] | None = None  # scatter_px() of `recent` (None: not computed)
         self._reset_filters()
 
     def _reset_filters(self) -> None:
@@ -58,7 +57,7 @@ class PointFilter:
         self.butter = ButterworthQ(s.butterworth_cutoff_hz, s.fps) if s.filter == "butterworth" else None
         self.disparity: float | None = None  # filtered
         self.rate_pxps = 0.0  # filtered d'
-        self.rate_sigma_pxps: float | None = None  # its 1-sigma (Kalman only; None: not known)
+        self.rate_sigma_pxps = math.inf  # its 1-sigma (Kalman only; inf: not known)
         self.sigma_px = math.inf
         self.updates = 0  # accepted disparity measurements since the filter (re)started
 
@@ -105,15 +104,15 @@ class PointFilter:
         """Robust noise of the recent raw disparities: MAD of successive differences / sqrt(2)
         (differences remove the slow trend of an approaching ship). Computed once per new sample:
         the filter, the table's lifecycle and the fixes all ask for it in a pair."""
-        if self._scatter[0] == self._appended:
-            return self._scatter[1]
+        if self._scatter is not None:
+            return self._scatter[0]
         scatter = None
         if len(self.recent) >= MIN_SCATTER_SAMPLES:
             r = list(self.recent)
             diff = [b - a for a, b in zip(r, r[1:], strict=False)]
             centre = median(diff)
             scatter = 1.4826 * median([abs(x - centre) for x in diff]) / math.sqrt(2.0)
-        self._scatter = (self._appended, scatter)
+        self._scatter = (scatter,)
         return scatter
 
     @property
@@ -148,7 +147,7 @@ class PointFilter:
         self.raw_disparity = z
         if z is not None:
             self.recent.append(z)
-            self._appended += 1
+            self._scatter = None
             self._adapt_noise()
         if self.kalman is not None:
             if z is not None and not self.kalman.running and not self._fits_memory(z):
