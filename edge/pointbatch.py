@@ -110,26 +110,21 @@ Steps = Generator[Request, PointTrack | Match, bool]
 
 
 def follow_settings(s: PointSettings, max_sigma_px: float) -> FollowSettings:
+    """A track's follow knobs (constant per track: kept, and the key its follows are grouped by)."""
     return FollowSettings(s.window, s.follow_radius_px, s.follow_subpixel, s.noise_dn, max_sigma_px)
 
 
 def match_settings(s: PointSettings) -> MatchSettings:
+    """A track's stereo-match knobs (constant per track: kept, and the key its matches are grouped by)."""
     gain = NOISE_GAIN if s.prefilter == "xsobel" else 1.0
     return MatchSettings(s.window, s.search_radius_px, s.cost, s.subpixel, s.noise_dn * gain, s.max_sigma_px)
 
 
-def follow_request(s: PointSettings, template: np.ndarray, current: np.ndarray, x: float, y: float,
-                   predicted_dx: float, max_sigma_px: float,
-                   settings: FollowSettings | None = None) -> Follow:
-    """`settings`: `follow_settings(s, max_sigma_px)` when the caller keeps it (a track's are constant)."""
-    return Follow(template, current, x, y, predicted_dx, settings or follow_settings(s, max_sigma_px))
-
-
 def stereo_request(s: PointSettings, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float,
-                   v: float, pred: float | None, settings: MatchSettings | None = None) -> StereoMatch:
+                   v: float, pred: float | None, settings: MatchSettings) -> StereoMatch:
     """The match of rectified left point (u, v): patches of the rows the window covers and the columns
-    the search needs (narrowed to the prediction when there is one). `settings`: `match_settings(s)`
-    when the caller keeps it."""
+    the search needs (narrowed to the prediction when there is one); `settings` is `match_settings(s)`,
+    which a track keeps."""
     h = s.window // 2
     ui, vi = int(round(u)), int(round(v))
     d_hi = s.max_disparity
@@ -138,7 +133,7 @@ def stereo_request(s: PointSettings, left: np.ndarray, right: np.ndarray, rect: 
     x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
     get = rect.xsobel_patch if s.prefilter == "xsobel" else rect.patch
     lp, rp = get(left, 0, x0, vi - h, width, 2 * h + 1), get(right, 1, x0, vi - h, width, 2 * h + 1)
-    return StereoMatch(lp, rp, u - x0, v - (vi - h), d_hi, pred, settings or match_settings(s))
+    return StereoMatch(lp, rp, u - x0, v - (vi - h), d_hi, pred, settings)
 
 
 def run_one(steps: Steps) -> bool:
@@ -199,5 +194,5 @@ def step_points(all_steps: Sequence[Steps]) -> list[bool]:
     return results
 
 
-__all__ = ["Follow", "StereoMatch", "answer_all", "follow_request", "follow_settings", "match_settings",
-           "run_one", "step_points", "stereo_request"]
+__all__ = ["Follow", "StereoMatch", "answer_all", "follow_settings", "match_settings", "run_one",
+           "step_points", "stereo_request"]

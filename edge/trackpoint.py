@@ -39,7 +39,6 @@ from edge.core.refpoint import PointTrack
 from edge.pointbatch import (
     Follow,
     Steps,
-    follow_request,
     follow_settings,
     match_settings,
     run_one,
@@ -234,8 +233,7 @@ class TrackPoint(PointFilter):
         x0, y0, tx, ty = self.template_at
         h_patch, w_patch = self.template.shape
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
-        return follow_request(self.s, self.template, current, tx - x0, ty - y0, pu - tx, FOLLOW_MAX_SIGMA_PX,
-                              self.follow_settings)
+        return Follow(self.template, current, tx - x0, ty - y0, pu - tx, self.follow_settings)
 
     def _off_track(self, found: PointTrack, pu: float) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
