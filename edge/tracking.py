@@ -185,13 +185,10 @@ class TrackTable:
             if len(self.tracks) < self.s.max_tracks:
                 self._birth(left, right, t_ns, db)
 
-    def _confirm(self, track: Track, box: np.ndarray, left: np.ndarray, right: np.ndarray, t_ns: int) -> bool:
-        """Is the track confirmed by its box? (One track; `_associate` runs the halves for all.)"""
-        slope = self._slope(track.point, left, right) if self._confirm_start(track, box, left) else None
-        return self._confirm_end(track, box, slope, t_ns)
-
     def _confirm_start(self, track: Track, box: np.ndarray, left: np.ndarray) -> bool:
-        """The first half of a track's confirmation by its box; whether it wants the slope test."""
+        """The first half of a track's confirmation by its box (`_associate` runs the halves for all
+        its tracks, their slope tests answered together between them); whether it wants the slope
+        test."""
         p = track.point
         if p.prediction() is None and (p.searching or not _contains(box, p.u, p.v)):
             # a point without a range history that is off the ship, or lost what it followed (a
@@ -295,7 +292,8 @@ class TrackTable:
         return self.rect.rig.baseline_m / max(self.site_height_m, 1.0)
 
     def _slopes(self, points: list[TrackPoint], left: np.ndarray, right: np.ndarray) -> list[float | None]:
-        """`_slope` of each point, their matches answered together (edge.pointbatch.answer_all)."""
+        """Disparity change per row across each point: its matches SLOPE_ROWS above and below it, all
+        points' answered together (edge.pointbatch.answer_all; None: a match failed)."""
         requests = [stereo_request(p.s, left, right, self.rect, p.u, p.v + dv, p.predicted_disparity(),
                                    p.match_settings) for p in points for dv in (-SLOPE_ROWS, SLOPE_ROWS)]
         answers = answer_all(requests)
@@ -306,15 +304,8 @@ class TrackTable:
         return out
 
     def _slope(self, p: TrackPoint, left: np.ndarray, right: np.ndarray) -> float | None:
-        """Disparity change per row across the point: matches SLOPE_ROWS above and below it."""
-        pred = p.predicted_disparity()
-        d = []
-        for dv in (-SLOPE_ROWS, SLOPE_ROWS):
-            m = p.match_at(left, right, self.rect, p.u, p.v + dv, pred)
-            if not m.valid:
-                return None
-            d.append(m.disparity_px)
-        return (d[1] - d[0]) / (2 * SLOPE_ROWS)
+        """`_slopes` of one point."""
+        return self._slopes([p], left, right)[0]
 
     def _above_sea(self, p: TrackPoint) -> bool:
         """Does the point stand clear of the sea? Wave crests and troughs that persist and match

@@ -105,7 +105,7 @@ def test_a_searching_point_restarts_on_its_ship_only_without_a_range_history() -
     for point in (fresh, ranged):
         point.searching = True
         before = (point.u, point.v)
-        table._confirm(Track(1, 0, point, box, 5), box, left, right, 0)
+        table._confirm_start(Track(1, 0, point, box, 5), box, left)
         if point is fresh:
             assert not point.searching and (point.u, point.v) == table._reference(left, box)
         else:
