@@ -224,7 +224,7 @@ class TrackTable:
             return
         slope = self._slope(point, left, right) if m is not None and m.valid else None
         if slope is not None and slope > BIRTH_SLOPE_SHARE * self._sea_slope():
-            return  # plainly a patch of sea (see `_standing`): not worth a track
+            return  # plainly a patch of sea (see `promotion_gate`): not worth a track
         self.tracks.append(Track(self.next_id, t_ns, point, np.asarray(box, float), self.s.confirm_m))
         self.next_id += 1
         self.births += 1
@@ -275,17 +275,27 @@ class TrackTable:
         slack = 3.0 * max(self.ps.max_sigma_px, 0.1)
         return d_min - slack <= disparity_px <= 1.1 * d_max + slack
 
-    def _standing(self, track: Track) -> bool:
-        """A ship stands up out of the sea; wave crests and troughs that persist and match in
-        stereo lie on it. Two tests: (1) the sea's disparity grows by L_B / h per row below the
-        horizon (h the camera height: the same on every row, for any focal length), a ship's
-        side is vertical and keeps one disparity; so the disparity measured above and below the
-        point must change by much less than L_B / h per row; (2) the triangulated point must
-        stand clear of the sea below it."""
-        if not track.slopes or not track.point.usable:
-            return False
-        vertical = abs(float(np.median(track.slopes))) <= VERTICAL_SHARE * self._sea_slope()
-        return vertical and self._above_sea(track.point)
+    def promotion_gate(self, track: Track) -> str | None:
+        """The first Q -> T check the track fails now (None: it passes them all, it becomes T):
+        "updates" (its filter has fewer than min_updates measurements), "confirmations" (fewer
+        than confirm_n detection passes confirmed it), "usable" (its raw disparities scatter too
+        much), "vertical" and "height", the two tests that a ship stands up out of the sea while
+        wave crests and troughs that persist and match in stereo lie on it: (1) the sea's disparity
+        grows by L_B / h per row below the horizon (h the camera height: the same on every row, for
+        any focal length), a ship's side is vertical and keeps one disparity, so the disparity
+        measured above and below the point must change by much less than L_B / h per row; (2) the
+        triangulated point must stand clear of the sea below it (`height_m`)."""
+        s, p = self.s, track.point
+        if p.updates < s.min_updates:
+            return "updates"
+        if sum(track.confirmations) < s.confirm_n:
+            return "confirmations"
+        if not p.usable:
+            return "usable"
+        if not track.slopes or abs(float(np.median(track.slopes))) > VERTICAL_SHARE * self._sea_slope():
+            return "vertical"
+        height, sigma = self.height_m(p)
+        return "height" if height < max(s.min_height_m, 3.0 * sigma) else None
 
     def _sea_slope(self) -> float:
         """Disparity growth per row of the sea below the horizon: L_B / h (flat-sea approximation)."""
@@ -306,12 +316,6 @@ class TrackTable:
     def _slope(self, p: TrackPoint, left: np.ndarray, right: np.ndarray) -> float | None:
         """`_slopes` of one point."""
         return self._slopes([p], left, right)[0]
-
-    def _above_sea(self, p: TrackPoint) -> bool:
-        """Does the point stand clear of the sea? Wave crests and troughs that persist and match
-        in stereo are *on* the sea; a ship's superstructure is metres above it (`height_m`)."""
-        height, sigma = self.height_m(p)
-        return height >= max(self.s.min_height_m, 3.0 * sigma)
 
     def height_m(self, p: TrackPoint) -> tuple[float, float]:
         """The point's height above the sea and its 1-sigma, m. The height comes from the
@@ -336,7 +340,7 @@ class TrackTable:
             misses = len(track.confirmations) - hits
             if misses > s.confirm_m - s.confirm_n or t_ns - track.last_measured_ns > s.coast_s * 1e9:
                 self._drop(track)
-            elif hits >= s.confirm_n and track.point.updates >= s.min_updates and self._standing(track):
+            elif self.promotion_gate(track) is None:
                 track.status = TrackStatus.TRACKING
             return
         if not track.point.usable and track.point.scatter_px() is not None:
