@@ -8,10 +8,6 @@ from pathlib import Path
 import pytest
 from helpers import load_tool
 
-from edge.schema import load_yaml
-from edge.sim.batch import write_recording
-from edge.sim.scenario import scenario_from_dict, scenario_path
-from edge.sim.simulator import Simulation
 from edge.tracking import TrackTable
 
 
@@ -20,12 +16,8 @@ def _evaluate():
 
 
 @pytest.fixture(scope="module")
-def short_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = scenario_path("akashi-crossing")
-    sim = Simulation(scenario_from_dict(load_yaml(path), path, "akashi-crossing"), seed=0)
-    out = tmp_path_factory.mktemp("evaluate") / "rec"
-    write_recording(sim, out, frames=6, jobs=1)
-    return out
+def short_recording(recording) -> Path:
+    return recording("akashi-crossing", 6)
 
 
 def test_exit_status_says_whether_every_pair_was_processed(short_recording: Path, monkeypatch,

@@ -8,21 +8,12 @@ from pathlib import Path
 import pytest
 from helpers import load_tool
 
-from edge.schema import load_yaml
-from edge.sim.batch import write_recording
-from edge.sim.scenario import scenario_from_dict, scenario_path
-from edge.sim.simulator import Simulation
-
 FRAMES = 14  # the freighter of akashi-crossing turns T about 1 s (10 pairs) after its birth
 
 
 @pytest.fixture(scope="module")
-def short_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = scenario_path("akashi-crossing")
-    sim = Simulation(scenario_from_dict(load_yaml(path), path, "akashi-crossing"), seed=0)
-    out = tmp_path_factory.mktemp("gates") / "rec"
-    write_recording(sim, out, frames=FRAMES, jobs=1)
-    return out
+def short_recording(recording) -> Path:
+    return recording("akashi-crossing", FRAMES)
 
 
 def test_acquiring_time_is_charged_to_the_gates(short_recording: Path, capsys) -> None:
