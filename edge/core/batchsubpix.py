@@ -28,7 +28,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from edge.core.fixedpoint import FIT_BITS, SUBPIX_BITS, log2_q, round_shift_array
+from edge.core.fixedpoint import FIT_BITS, SUBPIX_BITS, div_round_array, log2_q, round_shift_array
 from edge.core.subpixel import _CANDIDATE_OF, _TEMPLATE_OF, _ncc_index
 
 
@@ -72,9 +72,7 @@ def vertex_fits_q(curves: np.ndarray, firsts: np.ndarray,
     num, den = ym - yp, 2 * (ym - 2 * y0 + yp)
     ok &= (den > 0) & (np.abs(num) <= den)
     den = np.where(ok, den, 1)
-    scaled = num << FIT_BITS
-    q = (2 * np.abs(scaled) + den) // (2 * den)                  # fixedpoint.div_round
-    fits = ((firsts.reshape(-1) + k) << FIT_BITS) + np.where(scaled >= 0, q, -q)
+    fits = ((firsts.reshape(-1) + k) << FIT_BITS) + div_round_array(num << FIT_BITS, den)
     return fits.reshape(curves.shape[:-1]), ok.reshape(curves.shape[:-1])
 
 
@@ -87,9 +85,7 @@ def parabola3_q8(curves: np.ndarray, d0s: np.ndarray) -> tuple[np.ndarray, np.nd
     num, den = cm - cp, 2 * (cm - 2 * c0 + cp)
     ok = (c0 < cm) & (c0 <= cp) & (den > 0) & (2 * np.abs(num) <= den)      # subpixel.interior_argmin
     den = np.where(ok, den, 1)
-    scaled = num << FIT_BITS
-    q = (2 * np.abs(scaled) + den) // (2 * den)                  # fixedpoint.div_round
-    fit = (d0s << FIT_BITS) + np.where(scaled >= 0, q, -q)
+    fit = (d0s << FIT_BITS) + div_round_array(num << FIT_BITS, den)
     return round_shift_array(fit, FIT_BITS - SUBPIX_BITS), ok      # subpixel.fit_to_q8
 
 

@@ -77,6 +77,12 @@ def div_round(num: int, den: int) -> int:
     return q if num >= 0 else -q
 
 
+def div_round_array(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+    """`div_round` of int64 arrays, elementwise (den > 0 everywhere; not checked)."""
+    q = (2 * np.abs(num) + den) // (2 * den)
+    return np.where(num >= 0, q, -q)
+
+
 def restoring_divide(num: int, den: int, frac_bits: int) -> int:
     """Q(frac_bits) quotient of num/den for |num| <= den, rounded half away from zero.
 

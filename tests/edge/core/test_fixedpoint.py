@@ -70,3 +70,11 @@ def test_scales_are_consistent() -> None:
 @given(st.integers(1, (1 << 62) - 1))
 def test_scalar_log2_is_bit_identical_to_the_vector_one(v: int) -> None:
     assert fp.log2_q_int(v) == int(fp.log2_q(np.array([v], dtype=np.int64))[0])
+
+
+@given(st.lists(st.tuples(st.integers(-(1 << 50), 1 << 50), st.integers(1, 1 << 40)),
+                min_size=1, max_size=20))
+def test_array_division_is_div_round_elementwise(pairs: list[tuple[int, int]]) -> None:
+    num = np.array([p[0] for p in pairs], dtype=np.int64)
+    den = np.array([p[1] for p in pairs], dtype=np.int64)
+    assert fp.div_round_array(num, den).tolist() == [fp.div_round(a, b) for a, b in pairs]
