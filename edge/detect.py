@@ -110,6 +110,7 @@ class Detector:
         self.width, self.height = rig.width, rig.height
         self.horizon_raw = self._predicted_horizon(site_height_m)  # (width,) raw left rows, full res
         self.horizon_offset_px = 0.0  # refinement, full-resolution rows
+        self.horizon_bands_px = np.empty(0)  # the last pass's offset per band found (tools/horizon-offset)
         self.search_px = max(3.0, rectifier.f_px * math.tan(math.radians(HORIZON_SEARCH_DEG)))
         self._buf: dict[str, np.ndarray] | None = None  # work images, `_buffers`
 
@@ -153,7 +154,10 @@ class Detector:
                 c_m, c_0, c_p = profile[best - 1:best + 2]
                 den = c_m - 2.0 * c_0 + c_p
                 frac = 0.5 * (c_m - c_p) / den if den < 0 else 0.0
-                offsets.append((k[best] + frac) * dec)
+                # from the prediction itself, not from its rounded rows (that would leave up to half
+                # a decimated row of rounding in the offset, and it would step as the prediction moves)
+                offsets.append((k[best] + frac + float(np.mean(rows - pred[band]))) * dec)
+        self.horizon_bands_px = np.array(offsets)
         if len(offsets) >= max(2, HORIZON_BANDS // 2):
             new = float(np.clip(np.median(offsets), -self.search_px, self.search_px))
             self.horizon_offset_px += HORIZON_SMOOTHING * (new - self.horizon_offset_px)
