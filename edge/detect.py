@@ -110,6 +110,12 @@ class Detector:
         self.width, self.height = rig.width, rig.height
         self.horizon_raw = self._predicted_horizon(site_height_m)  # (width,) raw left rows, full res
         self.horizon_offset_px = 0.0  # refinement, full-resolution rows
+        # the last pass's offset per band found, full-resolution rows from the prediction itself
+        # (tools/horizon-offset). The smoothed `horizon_offset_px` the detection levels with is taken
+        # from the prediction's rounded rows (up to a decimated row of rounding in it, which steps as
+        # the prediction moves): within that it splits sky from sea as well, and from the prediction
+        # itself it moved akashi-crossing's coaster's re-birth (an id switch)
+        self.horizon_bands_px = np.empty(0)
         self.search_px = max(3.0, rectifier.f_px * math.tan(math.radians(HORIZON_SEARCH_DEG)))
         self._buf: dict[str, np.ndarray] | None = None  # work images, `_buffers`
 
@@ -140,7 +146,7 @@ class Detector:
         lo = max(0, int(rows_all.min()) - radius - 1)
         hi = min(hs, int(rows_all.max()) + radius + 2)
         grad = cv2.Sobel(small[lo:hi], cv2.CV_32F, 0, 1, ksize=3) if hi - lo >= 3 else None
-        offsets = []
+        offsets, measured = [], []  # per band: from the prediction's rounded rows / from the prediction
         for band in np.array_split(np.arange(ws), HORIZON_BANDS):
             rows = rows_all[band]
             k = np.arange(-radius, radius + 1)
@@ -154,6 +160,8 @@ class Detector:
                 den = c_m - 2.0 * c_0 + c_p
                 frac = 0.5 * (c_m - c_p) / den if den < 0 else 0.0
                 offsets.append((k[best] + frac) * dec)
+                measured.append((k[best] + frac + float(np.mean(rows - pred[band]))) * dec)
+        self.horizon_bands_px = np.array(measured)
         if len(offsets) >= max(2, HORIZON_BANDS // 2):
             new = float(np.clip(np.median(offsets), -self.search_px, self.search_px))
             self.horizon_offset_px += HORIZON_SMOOTHING * (new - self.horizon_offset_px)
