@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from edge.anchor import reference_points, ship_window
+from edge.anchor import reference_points, ship_window, spanning_width
 from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
@@ -231,6 +231,8 @@ class TrackTable:
     def _ship_window(self, left: np.ndarray, box: np.ndarray) -> int:
         """edge.anchor.ship_window for a ship in `box` (rectified) in this left image."""
         m = self.ps.window
+        if spanning_width(box[2] - box[0], m) == m:
+            return m  # no spanning window for a ship this wide: no patch needed
         bx0, by0 = int(math.floor(box[0])) - m, int(math.floor(box[1])) - m
         bx1, by1 = int(math.ceil(box[2])) + m, int(math.ceil(box[3])) + m
         patch = self.rect.patch(left, 0, bx0, by0, bx1 - bx0, by1 - by0)
