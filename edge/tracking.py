@@ -222,11 +222,13 @@ class TrackTable:
         p = track.point
         if p.searching or p.s.window != self.ps.window:
             return
-        window = self._ship_window(left, box)
-        track.window_votes = track.window_votes + 1 if window != p.s.window else 0
+        wants = spanning_width(box[2] - box[0], p.s.window) != p.s.window  # the box alone: cheap
+        track.window_votes = track.window_votes + 1 if wants else 0
         if track.window_votes >= WINDOW_VOTES:
             track.window_votes = 0
-            p.set_window(window, self.rect)
+            window = self._ship_window(left, box)  # and the quiet background it needs
+            if window != p.s.window:
+                p.set_window(window, self.rect)
 
     def _ship_window(self, left: np.ndarray, box: np.ndarray) -> int:
         """edge.anchor.ship_window for a ship in `box` (rectified) in this left image."""
