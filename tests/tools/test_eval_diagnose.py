@@ -44,6 +44,7 @@ def test_scan_table_gives_each_bin_and_legs_mean_and_rms(rows) -> None:
                 assert cells[k] == "-"
                 k += 1
                 continue
-            assert abs(float(cells[k]) - np.mean(col)) <= 5e-4 + 1e-9  # printed to 3 decimals
-            assert abs(float(cells[k + 1].strip("()")) - math.sqrt(np.mean(col**2))) <= 5e-4 + 1e-9  # printed to 3 decimals
+            printed = 5e-4 + 1e-9  # 3 decimals
+            assert abs(float(cells[k]) - np.mean(col)) <= printed
+            assert abs(float(cells[k + 1].strip("()")) - math.sqrt(np.mean(col**2))) <= printed
             k += 2
