@@ -220,9 +220,9 @@ class TrackTable:
         always was): on approach-2048 the configured window on a ferry 30-60 px wide measured
         0.3-1 px too far (its point drifts along the visible side); the spanning one does not."""
         p = track.point
-        if p.searching:
+        if p.searching or p.s.window != self.ps.window:
             return
-        wants = spanning_width(box[2] - box[0], self.ps.window) != p.s.window  # the box alone: cheap
+        wants = spanning_width(box[2] - box[0], p.s.window) != p.s.window  # the box alone: cheap
         track.window_votes = track.window_votes + 1 if wants else 0
         if track.window_votes >= WINDOW_VOTES:
             track.window_votes = 0
