@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 UPPER_SHARE = 0.6  # the reference point is searched in this top share of the ship's box
-SHIP_WINDOW_MARGIN_PX = 2  # a small ship's window spans its box plus this (both outlines inside)
+SHIP_WINDOW_MARGIN_PX = 6  # a small ship's window spans its box plus this (both outlines inside)
 BACKGROUND_SHARE = 0.25  # ... if the background around it has at most this share of the ship's texture
 
 
