@@ -39,11 +39,9 @@ def ship_window(patch: np.ndarray, origin: tuple[int, int], box: tuple[float, fl
     box has at most BACKGROUND_SHARE of the ship's gradient energy per pixel (far sea and sky
     are smooth; the sea around a boat at a few hundred metres is not). A ship wider than two
     windows has enough texture inside one."""
-    box_w = box[2] - box[0]
-    width = int(math.ceil(box_w)) + SHIP_WINDOW_MARGIN_PX
-    if width <= window or box_w > 2 * window:
+    w = spanning_width(box[2] - box[0], window)
+    if w == window:
         return window
-    w = min(width | 1, 2 * window - 1)
     g = patch.astype(np.float32)
     gx2 = np.zeros_like(g)
     gx2[:, 1:-1] = (g[:, 2:] - g[:, :-2]) ** 2
@@ -56,6 +54,15 @@ def ship_window(patch: np.ndarray, origin: tuple[int, int], box: tuple[float, fl
     ship = float(inside.mean()) if inside.size else 0.0
     background = (float(around.sum()) - float(inside.sum())) / max(1, around.size - inside.size)
     return w if background <= BACKGROUND_SHARE * ship else window
+
+
+def spanning_width(box_w: float, window: int) -> int:
+    """The side of a window spanning a ship box_w px wide (`ship_window`), or `window` for a ship too
+    narrow to need one or wider than two windows."""
+    width = int(math.ceil(box_w)) + SHIP_WINDOW_MARGIN_PX
+    if width <= window or box_w > 2 * window:
+        return window
+    return min(width | 1, 2 * window - 1)
 
 
 def reference_points(patch: np.ndarray, box: tuple[int, int, int, int], origin: tuple[int, int],

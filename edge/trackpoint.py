@@ -5,7 +5,8 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 
 - Reference point (`edge.anchor.reference_points`): the best-textured window in
   the upper part of the ship's box — the superstructure, the thesis's bridge; the window spans a
-  small far ship on a quiet background (`edge.anchor.ship_window`, chosen at birth).
+  small far ship on a quiet background (`edge.anchor.ship_window`, chosen at birth, or later when
+  a ship shrinks into it: `TrackTable._resize_window`).
 - Left follow: the core's sub-pixel point tracker (`edge.core.track_point`,
   ZSSD 2-D search with cancellation-free parabola fits here for speed) finds a
   template kept for up to a second around the position the point's image motion
@@ -138,6 +139,18 @@ class TrackPoint(PointFilter):
         self.match_costs.clear()
         self.columns.clear()
         self._reset_filters()
+
+    def set_window(self, window: int, rect: Rectifier) -> None:
+        """Match with another window side from now on (edge.anchor.ship_window for the ship's size
+        now), at the same point: its template is re-taken from the last image, the filters go on."""
+        self.s = replace(self.s, window=window)
+        self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)
+        self.match_settings = match_settings(self.s)
+        self.match_costs.clear()  # costs scale with the window's area
+        if self.last_left is not None:
+            self._take_template(self.last_left, rect)
+        else:
+            self.template = None
 
     # ------------------------------------------------------------ per pair
     def step(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, skipped: int = 0,

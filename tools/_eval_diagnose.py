@@ -26,6 +26,11 @@ other the far end of the side the rig sees (up to a ship length farther); a wind
 measures a disparity between the two. (Which outline is which cannot be told from a ray through
 the outline pixel's centre: the side is often narrower than a pixel.) Also per fix the track's
 window side and the raw disparity against the bridge's own disparity.
+
+Window scan: the product's match at the followed point with windows of SCAN_WINDOWS px (the
+track's own settings otherwise), minus the bridge's true disparity, per range bin and leg: how
+much of the error is the window's size (which outlines and faces it takes in) rather than the
+point, and whether another size would meet the tolerance there.
 """
 
 from __future__ import annotations
@@ -33,13 +38,14 @@ from __future__ import annotations
 import copy
 import math
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from edge.core.match import match_point
 from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
+from edge.pointbatch import match_settings, stereo_request
 from edge.schema import load_yaml
 from edge.sim.rays import CameraRays, cast
 from edge.sim.scenario import scenario_from_dict, scenario_path
@@ -47,6 +53,7 @@ from edge.sim.simulator import Simulation
 
 BINS_M = ((0, 1000), (1000, 2000), (2000, 3000), (3000, 4000), (4000, 5000))
 OUTLINE_WINDOW = 9  # px: the window matched on one outline alone (narrower than the far ships)
+SCAN_WINDOWS = (9, 15, 21, 27)  # px: window sides matched at the followed point (the window scan)
 
 
 @dataclass
@@ -66,6 +73,7 @@ class Probe:
     left_px: float = math.nan  # the ship's left outline matched alone - d_bridge
     right_px: float = math.nan  # the ship's right outline matched alone - d_bridge
     receding: bool = False  # the bridge's true range grows
+    scan_px: tuple[float, ...] = ()  # SCAN_WINDOWS matched at the point: d - d_bridge each (nan: invalid)
 
 
 class Diagnoser:
@@ -151,13 +159,24 @@ class Diagnoser:
         r_filtered = r_point * d_point / p.disparity
         raw_px = math.nan if p.raw_disparity is None else p.raw_disparity - d_point
         d_bridge = float(self._disparity(bridge_xyz[None])[0])
-        ends = (math.nan, math.nan)
+        ends, scan = (math.nan, math.nan), ()
         if images is not None:
             ends = self._outlines(p, ship, posed, images, d_bridge)
+            scan = self._scan(p, images, d_bridge)
         return Probe(r_bridge, part, r_point - r_bridge, raw_px, p.disparity - d_point,
                      r_filtered - r_point, r_filtered - r_bridge, share, p.s.window,
                      math.nan if p.raw_disparity is None else p.raw_disparity - d_bridge, *ends,
-                     bool(receding and receding.get(ship_id, False)))
+                     bool(receding and receding.get(ship_id, False)), scan)
+
+    def _scan(self, p, images, d_bridge: float) -> tuple[float, ...]:
+        """The product's match at the followed point with each of SCAN_WINDOWS (the track's settings
+        otherwise, its filtered disparity as the prediction), minus the bridge's true disparity."""
+        out = []
+        for w in SCAN_WINDOWS:
+            s = replace(p.s, window=w)
+            m = stereo_request(s, *images, self.rect, p.u, p.v, p.disparity, match_settings(s)).run()
+            out.append(m.disparity_px - d_bridge if m.valid else math.nan)
+        return tuple(out)
 
 
 def diagnose(pipe, diag: Diagnoser, source, truth: dict[int, np.ndarray]) -> tuple[list[Probe], dict]:
@@ -199,6 +218,26 @@ def _pair(ps: list[Probe]) -> str:
     x = np.array([(p.left_px, p.right_px) for p in ps], float).reshape(-1, 2)
     x = x[np.isfinite(x).all(axis=1)]
     return f"{np.mean(x[:, 0]):+.3f}/{np.mean(x[:, 1]):+.3f} ({len(x)})" if len(x) else "-"
+
+
+def scan_table(probes: list[Probe]) -> list[str]:
+    """Per range bin, approaching and receding apart: the mean (RMS) of d - d_bridge of the product's
+    match at the followed point with each of SCAN_WINDOWS, px."""
+    out = ["range     leg        n " + " ".join(f"{f'win {w}':>15}" for w in SCAN_WINDOWS)]
+    for lo, hi in BINS_M:
+        for receding in (False, True):
+            ps = [p for p in probes if lo <= p.range_m < hi and p.receding == receding and p.scan_px]
+            if not ps:
+                continue
+            x = np.array([p.scan_px for p in ps], float)
+            cells = []
+            for k in range(x.shape[1]):
+                col = x[np.isfinite(x[:, k]), k]
+                cells.append(f"{np.mean(col):+.3f} ({_rms(col):.3f})" if col.size else "-")
+            leg = "receding" if receding else "approach"
+            out.append(f"{lo / 1000:.0f}-{hi / 1000:.0f} km  {leg:<9}{len(ps):>3} "
+                       + " ".join(f"{c:>15}" for c in cells))
+    return out
 
 
 def table(probes: list[Probe]) -> list[str]:

@@ -12,7 +12,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import linregress
 
-from edge.anchor import SHIP_WINDOW_MARGIN_PX, line_fit, median, reference_points, ship_window, slope_sigma
+from edge.anchor import (
+    SHIP_WINDOW_MARGIN_PX,
+    line_fit,
+    median,
+    reference_points,
+    ship_window,
+    slope_sigma,
+    spanning_width,
+)
 
 
 def test_reference_points_pick_texture_in_the_upper_part_and_spread_out() -> None:
@@ -94,3 +102,20 @@ def test_ship_window_keeps_the_window_for_a_big_ship() -> None:
     image = np.full((120, 160), 150, np.uint8)
     image[40:52, 20:130] = 80
     assert ship_window(image, (0, 0), (20, 40, 130, 52), 15) == 15
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(1.0, 80.0), st.sampled_from([9, 15, 21]))
+def test_spanning_width_is_ship_windows_side_from_the_box_alone(box_w: float, window: int) -> None:
+    """An odd side holding the box and its margin (at most 2 window - 1), or the window itself for a
+    ship too narrow to need more or wider than two windows; ship_window on a quiet background
+    agrees whenever the box spans whole pixels."""
+    w = spanning_width(box_w, window)
+    if w == window:
+        assert math.ceil(box_w) + SHIP_WINDOW_MARGIN_PX <= window or box_w > 2 * window
+    else:
+        assert w % 2 == 1 and window < w <= 2 * window - 1
+        assert w >= min(math.ceil(box_w) + SHIP_WINDOW_MARGIN_PX, 2 * window - 1)
+    if window == 15 and box_w == int(box_w) and box_w <= 60:
+        image, box = _scene(int(box_w), 0.5, int(box_w))
+        assert ship_window(image, (0, 0), box, 15) == w

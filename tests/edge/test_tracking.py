@@ -19,7 +19,7 @@ from edge.fix import TrackStatus
 from edge.pipeline import Pipeline
 from edge.replay import recording_calibration
 from edge.sim.recording import read_truth
-from edge.tracking import CLIPPED_DN, TableSettings, Track, TrackTable, _overlap
+from edge.tracking import CLIPPED_DN, WINDOW_VOTES, TableSettings, Track, TrackTable, _overlap
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 W, H, F, B, HEIGHT = 400, 300, 900.0, 8.0, 25.0
@@ -196,3 +196,46 @@ def test_ships_among_glints_become_t_within_3_s_and_glints_never_do(recording) -
             assert math.hypot(fix.x_m - x, fix.z_m - z) <= size[ship] + 3.0 * fix.sigma_m
             first_t.setdefault(ship, pair.t_ns / 1e9)
     assert set(first_t) == set(truth) and max(first_t.values()) <= 3.0, first_t
+
+
+def _small_ship_pair(box: tuple[int, int, int, int], disparity: float) -> tuple[np.ndarray, np.ndarray]:
+    """A textured ship in `box` on a flat background (far sea and sky), the right image shifted by
+    `disparity`."""
+    x0, y0, x1, y1 = box
+    rng = np.random.default_rng(5)
+    tex = np.full((H, W), 120.0, np.float32)
+    tex[y0:y1, x0:x1] = 120 + 50 * cv2.GaussianBlur(rng.normal(0, 1, (y1 - y0, x1 - x0)), (0, 0), 1.0)
+    vv, uu = np.mgrid[0:H, 0:W].astype(np.float32)
+    right = cv2.remap(tex, uu + disparity, vv, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+    to8 = lambda a: np.clip(np.round(a), 0, 255).astype(np.uint8)  # noqa: E731
+    return to8(tex), to8(right)
+
+
+def test_a_ship_shrunk_into_the_spanning_window_takes_it_after_some_passes_and_keeps_its_filter() -> None:
+    """A track on the configured window whose ship is narrow enough for edge.anchor.ship_window's
+    spanning window takes it once WINDOW_VOTES detection passes in a row call for it, at the same
+    point and with the same filter, and goes on measuring the ship's disparity; a track already on
+    its own window keeps it when the ship grows past two windows."""
+    table = _table()
+    box_px = (150, 140, 170, 156)
+    left, right = _small_ship_pair(box_px, 14.0)
+    box = np.array(box_px, float)
+    spanning = table._ship_window(left, box)
+    assert spanning > table.ps.window  # the premise: a small ship on a quiet background
+    point = TrackPoint(160.0, 147.0, table.ps, table.designs)
+    for _ in range(8):
+        assert point.step(left, right, table.rect)
+    track = Track(1, 0, point, box, 5)
+    updates, position = point.updates, (point.u, point.v)
+    for _ in range(WINDOW_VOTES - 1):
+        table._confirm_start(track, box, left)
+        assert point.s.window == table.ps.window
+    table._confirm_start(track, box, left)
+    assert point.s.window == spanning and point.updates == updates and (point.u, point.v) == position
+    for _ in range(5):
+        assert point.step(left, right, table.rect)
+    assert point.updates == updates + 5 and point.disparity == pytest.approx(14.0, abs=0.05)
+    wide = np.array([100.0, 140.0, 100.0 + 3 * table.ps.window, 156.0])
+    for _ in range(2 * WINDOW_VOTES):
+        table._confirm_start(track, wide, left)
+    assert point.s.window == spanning
