@@ -83,6 +83,8 @@ class Track:
         self.last_confirmed_ns = t_ns
         self.lost_since_ns: int | None = None
         self.alive = True
+        self.det_box = np.asarray(box, float)  # the last detection box associated to the track ...
+        self.det_frame = point.frame  # ... and the point's pair it is from
 
     @property
     def box(self) -> np.ndarray:
@@ -126,6 +128,8 @@ class TrackTable:
              boxes: list[np.ndarray] | None = None) -> list[Track]:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
+        if boxes:
+            self._box_steps(boxes, skipped)
         # every track's follow and match of this pair batched (edge.pointbatch; = point.step per track)
         steps = [t.point.steps(left, right, self.rect, skipped,
                                lambda t=t: self._candidates(left, t.box, window=t.point.s.window))
@@ -134,7 +138,8 @@ class TrackTable:
             du, dv = track.point.jumped
             if du or dv:  # the point moved to another part of the ship: the ship's box did not
                 track.box_rel -= np.array([du, dv, du, dv])
-            if track.point.accepted:
+            if track.point.accepted or (track.status is TrackStatus.ACQUIRING and track.point.collected):
+                # a newborn's filter takes init_samples pairs to start (4 s at 1 fps): its samples count
                 track.last_measured_ns = t_ns
             if not alive:  # the point is gone for good: a tentative track ends, a confirmed one is lost
                 if track.status is TrackStatus.ACQUIRING:
@@ -148,6 +153,24 @@ class TrackTable:
                 self._lifecycle(track, t_ns)
         self.tracks = [t for t in self.tracks if t.alive]
         return self.tracks
+
+    def _box_steps(self, boxes: list[np.ndarray], skipped: int) -> None:
+        """Tell each track's point how far the detector's box moved it since the box last associated
+        to it (columns per pair, `TrackPoint.box_step_px`): the displacement of the box's two ends,
+        interpolated at the point's place along the box (a turning ship's ends move apart), over the
+        pairs between the two boxes. The box is the one overlapping the track's box most (the
+        association's gate); its follow searches there when the point's own motion is not known yet
+        or failed."""
+        for track in self.tracks:
+            p = track.point
+            pairs = p.frame + skipped + 1 - track.det_frame
+            overlaps = [_overlap(track.box, b) for b in boxes]
+            j = int(np.argmax(overlaps))
+            if pairs <= 0 or overlaps[j] < MIN_OVERLAP:
+                continue
+            old, new = track.det_box, boxes[j]
+            share = min(max((p.u - old[0]) / max(old[2] - old[0], 1.0), 0.0), 1.0)
+            p.box_step_px = float((new[0] - old[0]) * (1.0 - share) + (new[2] - old[2]) * share) / pairs
 
     def _associate(self, left: np.ndarray, right: np.ndarray, t_ns: int, boxes: list[np.ndarray]) -> None:
         tracks = self.tracks
@@ -196,6 +219,7 @@ class TrackTable:
             # (one with a history stays: it gets candidates from this box next pair)
             p.reanchor(*self._reference(left, box, p.s.window))
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
+        track.det_box, track.det_frame = np.asarray(box, float), p.frame
         return track.status is TrackStatus.ACQUIRING and not p.searching
 
     def _confirm_end(self, track: Track, box: np.ndarray, slope: float | None, t_ns: int) -> bool:

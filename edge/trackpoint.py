@@ -113,6 +113,8 @@ class TrackPoint(PointFilter):
         self.template_reach = 0.0  # px the point may move before the patch is too small
         self.template_age = 0  # pairs since it was taken
         self.last_left: np.ndarray | None = None
+        self.last_left_frame = -1  # the pair last_left is from
+        self.box_step_px: float | None = None  # this pair's column step from the detector (TrackTable)
         self.searching = False
         self.search_frames = 0
         self.follow_failures = 0  # pairs in a row the core tracker found no sure match
@@ -137,6 +139,7 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
         self.match_costs.clear()
         self.columns.clear()
+        self.u_filtered = None
         self._reset_filters()
 
     # ------------------------------------------------------------ per pair
@@ -159,26 +162,36 @@ class TrackPoint(PointFilter):
         self.match = None
         self.jumped = (0.0, 0.0)
         self.followed = False
+        hint, self.box_step_px = self.box_step_px, None
         if not self.searching and self.template is not None and len(self.columns) >= 3 and \
                 self.frame - self.columns[-1][0] < self.s.follow_every:
-            self.u += self.u_rate_pxps / self.s.fps  # between follows the image motion carries it
+            self._carry(self.u_rate_pxps / self.s.fps)  # between follows the image motion carries it
         elif not self.searching and self.template is not None:
-            pu = self.u + self.u_rate_pxps / self.s.fps
-            if abs(pu - self.template_at[2]) > self.template_reach:
-                self._take_template(self.last_left, rect)  # moved too far for the kept patch
-            found = yield self._follow(left, rect, pu)
+            own = self.u_rate_pxps / self.s.fps  # the step the point's own motion predicts
+            guided = self._guided_follow(left, rect, hint) if hint is not None and len(self.columns) < 3 \
+                else None
+            if guided is None:
+                pu = self.u + own
+                if abs(pu - self.template_at[2]) > self.template_reach:
+                    self._take_template(self.last_left, rect)  # moved too far for the kept patch
+                found, origin = (yield self._follow(left, rect, pu)), self.template_at[:2]
+                if not found.valid and hint is not None and abs(hint - own) > FOLLOW_GATE_PX:
+                    guided = self._guided_follow(left, rect, hint)  # the motion changed: where the box went
+            if guided is not None:
+                pu = self.u + hint
+                found, origin = (yield guided[0]), guided[1]
             if not found.valid:  # no sure match (flat, ambiguous): carry the point on its motion
                 self.follow_failures += 1
-                self.u = pu
+                self._carry(pu - self.u)
                 if self.follow_failures > FOLLOW_FAILURES_TO_SEARCH:
                     self.searching = True
-            elif self._off_track(found, pu):
+            elif self._off_track(found, pu, origin, guided is not None):
                 self.searching = True
             else:
                 self.follow_failures = 0
                 self.followed = True
                 self.follow_costs.append(found.cost / self.s.window**4)  # ZSSD -> DN^2 per pixel
-                self.u, self.v = found.x_px + self.template_at[0], found.y_px + self.template_at[1]
+                self.u, self.v = found.x_px + origin[0], found.y_px + origin[1]
         if self.searching:
             for u, v in candidates() if candidates is not None else []:
                 if (yield from self._try(u, v, left, right, rect)):
@@ -209,6 +222,7 @@ class TrackPoint(PointFilter):
         self.searching, self.search_frames, self.rejects, self.follow_failures = False, 0, 0, 0
         self.follow_costs.clear()
         self.columns.clear()  # another point of the ship: keep the rate, restart the line fit
+        self.u_filtered = None
         self._take_template(left, rect)
         self.match = m
         self._filter(m.disparity_px if m.valid else None)
@@ -224,8 +238,15 @@ class TrackPoint(PointFilter):
 
     def _coast(self) -> None:
         """A pair without a measurement: the point moves with the image motion, filters coast."""
-        self.u += self.u_rate_pxps / self.s.fps
+        self._carry(self.u_rate_pxps / self.s.fps)
         self._filter(None)
+
+    def _carry(self, step_px: float) -> None:
+        """Move the point `step_px` columns without a measurement, and the column line's value with
+        it (the fix's bearing comes from that value: left behind, it would lag the ship)."""
+        self.u += step_px
+        if self.u_filtered is not None:
+            self.u_filtered += step_px
 
     def _follow(self, left: np.ndarray, rect: Rectifier, pu: float) -> Follow:
         """Find the kept template's point in this pair with the core's sub-pixel point tracker
@@ -235,17 +256,37 @@ class TrackPoint(PointFilter):
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
         return Follow(self.template, current, tx - x0, ty - y0, pu - tx, self.follow_settings)
 
-    def _off_track(self, found: PointTrack, pu: float) -> bool:
+    def _guided_follow(self, left: np.ndarray, rect: Rectifier, step_px: float) -> tuple[Follow, tuple[int, int]] | None:
+        """A follow of the point's window in the previous pair, searched around where the detector's
+        box says it went (`step_px` columns, `TrackTable` measures it), and the patches' origin; None
+        without the previous pair's image.
+
+        Why: the point's own motion needs three follows, and at 1 fps (photo mode) a ship at 500 m
+        crosses 30 px per pair, far beyond the search radius around a newborn's zero motion; a
+        turning ship's image motion changes by more than the radius from one pair to the next. The
+        box's motion is a prediction the same radius can search around (tools/evaluate
+        approach-2048, 0-1 km)."""
+        if self.last_left is None or self.last_left_frame != self.frame - 1:
+            return None
+        h, r = self.s.window // 2, self.s.follow_radius_px
+        ui, vi = int(round(self.u)), int(round(self.v))
+        mx, my = h + r + FOLLOW_MARGIN_PX + abs(int(round(step_px))), h + r + FOLLOW_MARGIN_PX
+        prev = rect.patch(self.last_left, 0, ui - mx, vi - my, 2 * mx + 1, 2 * my + 1)
+        cur = rect.patch(left, 0, ui - mx, vi - my, 2 * mx + 1, 2 * my + 1)
+        return Follow(prev, cur, self.u - (ui - mx), self.v - (vi - my), step_px, self.follow_settings), \
+            (ui - mx, vi - my)
+
+    def _off_track(self, found: PointTrack, pu: float, origin: tuple[int, int], guided: bool) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
-        track's own motion puts it (the match jumped to another object)."""
+        track's own motion puts it (the match jumped to another object; not asked of a guided
+        follow, whose prediction is the box's and only as good as the box's outline)."""
         cost = found.cost / self.s.window**4
         if len(self.follow_costs) >= 5:
             typical = median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
                 return True
-        x0, y0, _, _ = self.template_at
-        jump = math.hypot(found.x_px + x0 - pu, found.y_px + y0 - self.v)
-        return len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
+        jump = math.hypot(found.x_px + origin[0] - pu, found.y_px + origin[1] - self.v)
+        return not guided and len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
 
     def _take_template(self, left: np.ndarray, rect: Rectifier) -> None:
         """Keep the rectified patch around the point: the core tracker searches it again in later
@@ -262,7 +303,7 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
 
     def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> Steps:
-        self.last_left = left
+        self.last_left, self.last_left_frame = left, self.frame
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
         # straddles the ship's outline); its appearance changes slowly, so refresh it now and then
