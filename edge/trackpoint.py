@@ -185,7 +185,7 @@ class TrackPoint(PointFilter):
                 self._carry(pu - self.u)
                 if self.follow_failures > FOLLOW_FAILURES_TO_SEARCH:
                     self.searching = True
-            elif self._off_track(found, pu, origin, guided is not None):
+            elif self._off_track(found, pu, origin, guided is not None, hint):
                 self.searching = True
             else:
                 self.follow_failures = 0
@@ -276,16 +276,21 @@ class TrackPoint(PointFilter):
         return Follow(prev, cur, self.u - (ui - mx), self.v - (vi - my), step_px, self.follow_settings), \
             (ui - mx, vi - my)
 
-    def _off_track(self, found: PointTrack, pu: float, origin: tuple[int, int], guided: bool) -> bool:
+    def _off_track(self, found: PointTrack, pu: float, origin: tuple[int, int], guided: bool,
+                   box_step_px: float | None) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
-        track's own motion puts it (the match jumped to another object; not asked of a guided
-        follow, whose prediction is the box's and only as good as the box's outline)."""
+        track's own motion puts it and from where the detector's box does (the match jumped to
+        another object; a turning ship at 1 fps leaves its own motion by pixels in a pair, and the
+        box follows it). Not asked of a guided follow, whose prediction is the box's."""
         cost = found.cost / self.s.window**4
         if len(self.follow_costs) >= 5:
             typical = median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
                 return True
-        jump = math.hypot(found.x_px + origin[0] - pu, found.y_px + origin[1] - self.v)
+        x, y = found.x_px + origin[0], found.y_px + origin[1]
+        jump = math.hypot(x - pu, y - self.v)
+        if box_step_px is not None:  # self.u is still the previous pair's position
+            jump = min(jump, math.hypot(x - self.u - box_step_px, y - self.v))
         return not guided and len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
 
     def _take_template(self, left: np.ndarray, rect: Rectifier) -> None:
