@@ -376,8 +376,17 @@ class TrackTable:
         elif track.status is TrackStatus.LOST:
             if not stale and track.point.disparity is not None and track.confirmations[-1]:
                 track.status, track.lost_since_ns = TrackStatus.TRACKING, None
-            elif track.lost_since_ns is not None and t_ns - track.lost_since_ns > s.drop_s * 1e9:
+            elif track.lost_since_ns is not None and t_ns - track.lost_since_ns > self._drop_after_s(track) * 1e9:
                 self._drop(track)
+
+    def _drop_after_s(self, track: Track) -> float:
+        """How long a LOST track lives: drop_s, and while its restarting Kalman takes start samples
+        the time those samples take (init_samples pairs: 5 s at 1 fps, longer than drop_s, so a track
+        lost in a turn was dropped while it restarted and the ship was born again under a new id)."""
+        p = track.point
+        if not p.collected or p.kalman is None:
+            return self.s.drop_s
+        return self.s.drop_s + p.kalman.design.init_samples / p.s.fps
 
     def _drop(self, track: Track) -> None:
         track.alive = False

@@ -123,6 +123,7 @@ class TrackPoint(PointFilter):
         self.rejects = 0
         self.u_filtered: float | None = None
         self.u_rate_pxps = 0.0
+        self.moved = False  # u_rate_pxps has been measured (a line through >= 3 follows)
         # the image motion the speed is computed from: the last line of >= REFIT_COLUMNS follows,
         # kept while a new point's line is shorter, and its 1-sigma (inf: no such line yet)
         self.u_rate_known_pxps = 0.0
@@ -139,7 +140,6 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
         self.match_costs.clear()
         self.columns.clear()
-        self.u_filtered = None
         self._reset_filters()
 
     # ------------------------------------------------------------ per pair
@@ -165,11 +165,10 @@ class TrackPoint(PointFilter):
         hint, self.box_step_px = self.box_step_px, None
         if not self.searching and self.template is not None and len(self.columns) >= 3 and \
                 self.frame - self.columns[-1][0] < self.s.follow_every:
-            self._carry(self.u_rate_pxps / self.s.fps)  # between follows the image motion carries it
+            self.u += self.u_rate_pxps / self.s.fps  # between follows the image motion carries it
         elif not self.searching and self.template is not None:
             own = self.u_rate_pxps / self.s.fps  # the step the point's own motion predicts
-            guided = self._guided_follow(left, rect, hint) if hint is not None and len(self.columns) < 3 \
-                else None
+            guided = self._guided_follow(left, rect, hint) if hint is not None and not self.moved else None
             if guided is None:
                 pu = self.u + own
                 if abs(pu - self.template_at[2]) > self.template_reach:
@@ -182,7 +181,7 @@ class TrackPoint(PointFilter):
                 found, origin = (yield guided[0]), guided[1]
             if not found.valid:  # no sure match (flat, ambiguous): carry the point on its motion
                 self.follow_failures += 1
-                self._carry(pu - self.u)
+                self.u = pu
                 if self.follow_failures > FOLLOW_FAILURES_TO_SEARCH:
                     self.searching = True
             elif self._off_track(found, pu, origin, guided is not None, hint):
@@ -222,7 +221,6 @@ class TrackPoint(PointFilter):
         self.searching, self.search_frames, self.rejects, self.follow_failures = False, 0, 0, 0
         self.follow_costs.clear()
         self.columns.clear()  # another point of the ship: keep the rate, restart the line fit
-        self.u_filtered = None
         self._take_template(left, rect)
         self.match = m
         self._filter(m.disparity_px if m.valid else None)
@@ -238,15 +236,8 @@ class TrackPoint(PointFilter):
 
     def _coast(self) -> None:
         """A pair without a measurement: the point moves with the image motion, filters coast."""
-        self._carry(self.u_rate_pxps / self.s.fps)
+        self.u += self.u_rate_pxps / self.s.fps
         self._filter(None)
-
-    def _carry(self, step_px: float) -> None:
-        """Move the point `step_px` columns without a measurement, and the column line's value with
-        it (the fix's bearing comes from that value: left behind, it would lag the ship)."""
-        self.u += step_px
-        if self.u_filtered is not None:
-            self.u_filtered += step_px
 
     def _follow(self, left: np.ndarray, rect: Rectifier, pu: float) -> Follow:
         """Find the kept template's point in this pair with the core's sub-pixel point tracker
@@ -289,7 +280,8 @@ class TrackPoint(PointFilter):
                 return True
         x, y = found.x_px + origin[0], found.y_px + origin[1]
         jump = math.hypot(x - pu, y - self.v)
-        if box_step_px is not None:  # self.u is still the previous pair's position
+        if box_step_px is not None and abs(box_step_px - (pu - self.u)) > FOLLOW_GATE_PX:
+            # the box says the motion changed (self.u is still the previous pair's position)
             jump = min(jump, math.hypot(x - self.u - box_step_px, y - self.v))
         return not guided and len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
 
@@ -357,7 +349,7 @@ class TrackPoint(PointFilter):
         if self.disparity is not None and self.disparity > 0 and self.s.baseline_m > 0:
             limit = self.disparity * MAX_SHIP_SPEED_MPS / self.s.baseline_m  # |u'| <= f v / Z = d v / L_B
             rate = min(max(rate, -limit), limit)
-        self.u_filtered, self.u_rate_pxps = float(intercept), rate
+        self.u_filtered, self.u_rate_pxps, self.moved = float(intercept), rate, True
         if n >= REFIT_COLUMNS:
             self.u_rate_known_pxps = rate
             self.u_rate_sigma_pxps = slope_sigma(self.columns, intercept, slope, COLUMN_NOISE_PX) * self.s.fps
