@@ -376,7 +376,8 @@ class TrackTable:
         elif track.status is TrackStatus.LOST:
             if not stale and track.point.disparity is not None and track.confirmations[-1]:
                 track.status, track.lost_since_ns = TrackStatus.TRACKING, None
-            elif track.lost_since_ns is not None and t_ns - track.lost_since_ns > self._drop_after_s(track) * 1e9:
+            elif track.lost_since_ns is not None and \
+                    t_ns - track.lost_since_ns > self._drop_after_s(track) * 1e9:
                 self._drop(track)
 
     def _drop_after_s(self, track: Track) -> float:

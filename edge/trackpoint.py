@@ -247,7 +247,8 @@ class TrackPoint(PointFilter):
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
         return Follow(self.template, current, tx - x0, ty - y0, pu - tx, self.follow_settings)
 
-    def _guided_follow(self, left: np.ndarray, rect: Rectifier, step_px: float) -> tuple[Follow, tuple[int, int]] | None:
+    def _guided_follow(self, left: np.ndarray, rect: Rectifier,
+                       step_px: float) -> tuple[Follow, tuple[int, int]] | None:
         """A follow of the point's window in the previous pair, searched around where the detector's
         box says it went (`step_px` columns, `TrackTable` measures it), and the patches' origin; None
         without the previous pair's image.
