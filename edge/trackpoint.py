@@ -45,7 +45,7 @@ from edge.pointbatch import (
     stereo_request,
 )
 from edge.pointfilter import MAX_SHIP_SPEED_MPS, NOISE_WINDOW, PointFilter
-from edge.ranging import Designs
+from edge.ranging import MAX_SHIP_ACCEL_MPS2, Designs
 
 SUBPIXELS = ("cancel6-gauss", "refit", "cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
@@ -284,7 +284,18 @@ class TrackPoint(PointFilter):
         if box_step_px is not None and abs(box_step_px - (pu - self.u)) > FOLLOW_GATE_PX:
             # the box says the motion changed (self.u is still the previous pair's position)
             jump = min(jump, math.hypot(x - self.u - box_step_px, y - self.v))
-        return not guided and len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
+        return not guided and len(self.columns) >= 3 and jump > FOLLOW_GATE_PX + self._motion_lag_px()
+
+    def _motion_lag_px(self) -> float:
+        """How far a ship accelerating at MAX_SHIP_ACCEL_MPS2 across the view leaves the step the
+        column line predicts: the line's slope is the mean image motion of its n follows, n/2 pairs
+        before the coming step's, so the step is off by a_img n T^2 / 2 with a_img = d a / L_B (the
+        image acceleration, as |u'| <= d v / L_B). A few hundredths of a pixel at 10 fps; at 1 fps a
+        turning ship at 500 m is pixels off, which is no jump to another object."""
+        d = self.disparity if self.disparity is not None else self.raw_disparity
+        if d is None or not d > 0 or self.s.baseline_m <= 0:
+            return 0.0
+        return 0.5 * len(self.columns) * d * MAX_SHIP_ACCEL_MPS2 / self.s.baseline_m / self.s.fps**2
 
     def _take_template(self, left: np.ndarray, rect: Rectifier) -> None:
         """Keep the rectified patch around the point: the core tracker searches it again in later

@@ -10,7 +10,8 @@ from helpers import band_texture, shifted_u8
 
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
-from edge.trackpoint import REFIT_COLUMNS, Designs, PointSettings, TrackPoint
+from edge.ranging import MAX_SHIP_ACCEL_MPS2
+from edge.trackpoint import FOLLOW_GATE_PX, REFIT_COLUMNS, Designs, PointSettings, TrackPoint
 
 W, H = 320, 160
 
@@ -100,3 +101,24 @@ def test_a_newborn_at_1_fps_follows_where_the_box_went(box_error_px: float) -> N
             assert abs(alone.u - (60.0 + step)) > 4.0
     assert guided.moved and guided.u_rate_pxps == pytest.approx(step, abs=0.5)  # its own motion now
     assert guided.disparity == pytest.approx(d_true, abs=0.1)
+
+
+def test_a_ship_accelerating_at_the_bound_is_followed_at_1_fps_without_a_search() -> None:
+    """At 1 fps the column line's step lags a ship accelerating at MAX_SHIP_ACCEL_MPS2 across the
+    view by pixels (1.5 a_img T^2 for three follows, a_img = d a / L_B): no jump to another object."""
+    rect = Rectifier(_rig())
+    d_true = 24.0
+    a_img = d_true * MAX_SHIP_ACCEL_MPS2 / 8.0  # px/s^2
+    tex = band_texture(14, H, W + 240)
+    settings_ = PointSettings(fps=1.0, window=15, max_disparity=60, baseline_m=8.0, focal_px=900.0)
+    point = TrackPoint(60.0, 80.0, settings_, Designs(settings_))
+    for k in range(9):
+        shift = 10.0 * k + 0.5 * a_img * k * k
+        if 0 < k < 3:  # a newborn is told its box's step until its own line has three follows
+            point.box_step_px = shift - (10.0 * (k - 1) + 0.5 * a_img * (k - 1) ** 2)
+        left = shifted_u8(tex, shift)[:, 20:W + 20]
+        right = shifted_u8(tex, shift - d_true)[:, 20:W + 20]
+        assert point.step(left, right, rect, candidates=lambda: [])
+        assert not point.searching
+        assert point.u == pytest.approx(60.0 + shift, abs=0.3)
+    assert 1.5 * a_img > FOLLOW_GATE_PX  # the lag the gate allows for is more than its fixed part
