@@ -385,7 +385,7 @@ class TrackTable:
         the time those samples take (init_samples pairs: 5 s at 1 fps, longer than drop_s, so a track
         lost in a turn was dropped while it restarted and the ship was born again under a new id)."""
         p = track.point
-        if not p.collected or p.kalman is None:
+        if p.kalman is None or p.frame - p.collected_frame >= p.kalman.design.init_samples:
             return self.s.drop_s
         return self.s.drop_s + p.kalman.design.init_samples / p.s.fps
 

@@ -240,3 +240,29 @@ def test_a_newborn_at_1_fps_lives_while_its_filter_takes_its_start_samples() -> 
         assert point.collected == (k not in (2, init))
     assert init / table.ps.fps > table.s.coast_s
     assert point.updates == 1  # the filter started on its init_samples-th sample
+
+
+
+def test_a_lost_track_lives_while_its_restarting_filter_takes_its_start_samples() -> None:
+    """An L track is dropped drop_s after it turned L, but not while its Kalman restarts: its
+    init_samples take init_samples / fps (5 s at 1 fps, as long as drop_s); once no sample came for
+    that long, drop_s holds again."""
+    table = _table()
+    table.ps = PointSettings(fps=1.0, max_disparity=64, baseline_m=B, focal_px=F)
+    left, right = _pair(lambda v: 14.0)
+    box = np.array([150.0, 150.0, 230.0, 175.0])
+    point = TrackPoint(*table._reference(left, box), table.ps, table.designs)
+    track = Track(7, 0, point, box, 5)
+    track.status, track.lost_since_ns = TrackStatus.LOST, 0
+    init = point.kalman.design.init_samples
+    for _ in range(init - 1):
+        assert point.step(left, right, table.rect) and point.collected and not point.kalman.running
+    late_ns = int((table.s.drop_s + 0.5) * 1e9)
+    table._lifecycle(track, late_ns)
+    assert track.alive  # restarting: drop_s has passed, the samples' time has not
+    blank = np.full_like(right, 128)
+    for _ in range(init):
+        point.step(left, blank, table.rect)  # no more samples (nothing to match)
+        assert not point.collected
+    table._lifecycle(track, late_ns)
+    assert not track.alive
