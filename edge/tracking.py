@@ -24,7 +24,11 @@ their column spans, for boxes in the same rows), gated at a minimum overlap
   persist);
 - T becomes LOST (L) when no measurement was accepted for `coast_s`, or no
   detection confirmed it for `unconfirmed_s`; L turns back to T when both
-  resume, and is dropped `drop_s` after it turned L.
+  resume, and is dropped `drop_s` after it turned L (later while its restarting filter takes
+  its start samples, `_drop_after_s`).
+
+On detection pairs each track's point is also told how far its box moved (`_box_steps`): at 1 fps
+a newborn has no image motion of its own yet while a near ship crosses tens of pixels per pair.
 """
 
 from __future__ import annotations

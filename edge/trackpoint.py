@@ -12,7 +12,10 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
   predicts (re-taking it every pair would add each pair's error to the point).
   Where it finds no sure match (flat, ambiguous) the point is carried on its
   motion for a few pairs; a match too bad or off the motion means something
-  passed in front, and the point is searched for (see `TrackPoint`).
+  passed in front, and the point is searched for (see `TrackPoint`). A newborn
+  (no motion of its own yet) and a point whose predicted follow failed search
+  where the detector's box moved (`_guided_follow`): at 1 fps a near ship
+  crosses tens of pixels per pair.
 - Right match: `edge.core.match_point` on two rectified patches of the same rows and
   columns (prefilter "xsobel": both clipped x-Sobel, edge.core.prefilter), the search narrowed
   to the disparity filter's prediction once it runs (a full search at birth and after a restart);
