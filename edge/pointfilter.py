@@ -44,6 +44,8 @@ class PointFilter:
         self.match: Match | None = None  # this pair's right match (None: not attempted)
         self.raw_disparity: float | None = None
         self.accepted = False  # this pair's measurement went into the filter
+        self.collected = False  # ... or into the samples a (re)starting Kalman starts from
+        self.collected_frame = -1  # the last pair that did
         self.noise_px = settings.sigma_meas_px  # the Kalman design level in use
         self.memory: tuple[int, float, float, float] | None = None  # last accepted (frame, d, d', sigma)
         self.recent: deque[float] = deque(maxlen=NOISE_WINDOW)
@@ -169,6 +171,9 @@ class PointFilter:
             else:
                 self.disparity, self.sigma_px, self.updates = None, math.inf, 0
             self.accepted = bool(est.valid and est.accepted)
+            self.collected = bool(not est.valid and est.accepted)
+            if self.collected:
+                self.collected_frame = self.frame
             return
         self.accepted = z is not None
         if z is None:

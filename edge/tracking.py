@@ -24,7 +24,11 @@ their column spans, for boxes in the same rows), gated at a minimum overlap
   persist);
 - T becomes LOST (L) when no measurement was accepted for `coast_s`, or no
   detection confirmed it for `unconfirmed_s`; L turns back to T when both
-  resume, and is dropped `drop_s` after it turned L.
+  resume, and is dropped `drop_s` after it turned L (later while its restarting filter takes
+  its start samples, `_drop_after_s`).
+
+On detection pairs each track's point is also told how far its box moved (`_box_steps`): at 1 fps
+a newborn has no image motion of its own yet while a near ship crosses tens of pixels per pair.
 """
 
 from __future__ import annotations
@@ -85,6 +89,8 @@ class Track:
         self.lost_since_ns: int | None = None
         self.window_votes = 0  # detection passes in a row whose box calls for another window
         self.alive = True
+        self.det_box = np.asarray(box, float)  # the last detection box associated to the track ...
+        self.det_frame = point.frame  # ... and the point's pair it is from
 
     @property
     def box(self) -> np.ndarray:
@@ -128,6 +134,8 @@ class TrackTable:
              boxes: list[np.ndarray] | None = None) -> list[Track]:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
+        if boxes:
+            self._box_steps(boxes, skipped)
         # every track's follow and match of this pair batched (edge.pointbatch; = point.step per track)
         steps = [t.point.steps(left, right, self.rect, skipped,
                                lambda t=t: self._candidates(left, t.box, window=t.point.s.window))
@@ -136,7 +144,8 @@ class TrackTable:
             du, dv = track.point.jumped
             if du or dv:  # the point moved to another part of the ship: the ship's box did not
                 track.box_rel -= np.array([du, dv, du, dv])
-            if track.point.accepted:
+            if track.point.accepted or (track.status is TrackStatus.ACQUIRING and track.point.collected):
+                # a newborn's filter takes init_samples pairs to start (4 s at 1 fps): its samples count
                 track.last_measured_ns = t_ns
             if not alive:  # the point is gone for good: a tentative track ends, a confirmed one is lost
                 if track.status is TrackStatus.ACQUIRING:
@@ -150,6 +159,24 @@ class TrackTable:
                 self._lifecycle(track, t_ns)
         self.tracks = [t for t in self.tracks if t.alive]
         return self.tracks
+
+    def _box_steps(self, boxes: list[np.ndarray], skipped: int) -> None:
+        """Tell each track's point how far the detector's box moved it since the box last associated
+        to it (columns per pair, `TrackPoint.box_step_px`): the displacement of the box's two ends,
+        interpolated at the point's place along the box (a turning ship's ends move apart), over the
+        pairs between the two boxes. The box is the one overlapping the track's box most (the
+        association's gate); its follow searches there when the point's own motion is not known yet
+        or failed."""
+        for track in self.tracks:
+            p = track.point
+            pairs = p.frame + skipped + 1 - track.det_frame
+            overlaps = [_overlap(track.box, b) for b in boxes]
+            j = int(np.argmax(overlaps))
+            if pairs <= 0 or overlaps[j] < MIN_OVERLAP:
+                continue
+            old, new = track.det_box, boxes[j]
+            share = min(max((p.u - old[0]) / max(old[2] - old[0], 1.0), 0.0), 1.0)
+            p.box_step_px = float((new[0] - old[0]) * (1.0 - share) + (new[2] - old[2]) * share) / pairs
 
     def _associate(self, left: np.ndarray, right: np.ndarray, t_ns: int, boxes: list[np.ndarray]) -> None:
         tracks = self.tracks
@@ -199,6 +226,7 @@ class TrackTable:
             p.reanchor(*self._reference(left, box, p.s.window))
         track.box_rel = box - np.array([p.u, p.v, p.u, p.v])
         self._resize_window(track, box, left)
+        track.det_box, track.det_frame = np.asarray(box, float), p.frame
         return track.status is TrackStatus.ACQUIRING and not p.searching
 
     def _confirm_end(self, track: Track, box: np.ndarray, slope: float | None, t_ns: int) -> bool:
@@ -379,8 +407,18 @@ class TrackTable:
         elif track.status is TrackStatus.LOST:
             if not stale and track.point.disparity is not None and track.confirmations[-1]:
                 track.status, track.lost_since_ns = TrackStatus.TRACKING, None
-            elif track.lost_since_ns is not None and t_ns - track.lost_since_ns > s.drop_s * 1e9:
+            elif track.lost_since_ns is not None and \
+                    t_ns - track.lost_since_ns > self._drop_after_s(track) * 1e9:
                 self._drop(track)
+
+    def _drop_after_s(self, track: Track) -> float:
+        """How long a LOST track lives: drop_s, and while its restarting Kalman takes start samples
+        the time those samples take (init_samples pairs: 5 s at 1 fps, longer than drop_s, so a track
+        lost in a turn was dropped while it restarted and the ship was born again under a new id)."""
+        p = track.point
+        if p.kalman is None or p.frame - p.collected_frame >= p.kalman.design.init_samples:
+            return self.s.drop_s
+        return self.s.drop_s + p.kalman.design.init_samples / p.s.fps
 
     def _drop(self, track: Track) -> None:
         track.alive = False

@@ -13,7 +13,10 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
   predicts (re-taking it every pair would add each pair's error to the point).
   Where it finds no sure match (flat, ambiguous) the point is carried on its
   motion for a few pairs; a match too bad or off the motion means something
-  passed in front, and the point is searched for (see `TrackPoint`).
+  passed in front, and the point is searched for (see `TrackPoint`). A newborn
+  (no motion of its own yet) and a point whose predicted follow failed search
+  where the detector's box moved (`_guided_follow`): at 1 fps a near ship
+  crosses tens of pixels per pair.
 - Right match: `edge.core.match_point` on two rectified patches of the same rows and
   columns (prefilter "xsobel": both clipped x-Sobel, edge.core.prefilter), the search narrowed
   to the disparity filter's prediction once it runs (a full search at birth and after a restart);
@@ -46,7 +49,7 @@ from edge.pointbatch import (
     stereo_request,
 )
 from edge.pointfilter import MAX_SHIP_SPEED_MPS, NOISE_WINDOW, PointFilter
-from edge.ranging import Designs
+from edge.ranging import MAX_SHIP_ACCEL_MPS2, Designs
 
 SUBPIXELS = ("cancel6-gauss", "refit", "cancel", "parabola", "none")
 FILTERS = ("kalman", "butterworth", "none")
@@ -114,6 +117,8 @@ class TrackPoint(PointFilter):
         self.template_reach = 0.0  # px the point may move before the patch is too small
         self.template_age = 0  # pairs since it was taken
         self.last_left: np.ndarray | None = None
+        self.last_left_frame = -1  # the pair last_left is from
+        self.box_step_px: float | None = None  # this pair's column step from the detector (TrackTable)
         self.searching = False
         self.search_frames = 0
         self.follow_failures = 0  # pairs in a row the core tracker found no sure match
@@ -122,6 +127,7 @@ class TrackPoint(PointFilter):
         self.rejects = 0
         self.u_filtered: float | None = None
         self.u_rate_pxps = 0.0
+        self.moved = False  # u_rate_pxps has been measured (a line through >= 3 follows)
         # the image motion the speed is computed from: the last line of >= REFIT_COLUMNS follows,
         # kept while a new point's line is shorter, and its 1-sigma (inf: no such line yet)
         self.u_rate_known_pxps = 0.0
@@ -172,26 +178,35 @@ class TrackPoint(PointFilter):
         self.match = None
         self.jumped = (0.0, 0.0)
         self.followed = False
+        hint, self.box_step_px = self.box_step_px, None
         if not self.searching and self.template is not None and len(self.columns) >= 3 and \
                 self.frame - self.columns[-1][0] < self.s.follow_every:
             self.u += self.u_rate_pxps / self.s.fps  # between follows the image motion carries it
         elif not self.searching and self.template is not None:
-            pu = self.u + self.u_rate_pxps / self.s.fps
-            if abs(pu - self.template_at[2]) > self.template_reach:
-                self._take_template(self.last_left, rect)  # moved too far for the kept patch
-            found = yield self._follow(left, rect, pu)
+            own = self.u_rate_pxps / self.s.fps  # the step the point's own motion predicts
+            guided = self._guided_follow(left, rect, hint) if hint is not None and not self.moved else None
+            if guided is None:
+                pu = self.u + own
+                if abs(pu - self.template_at[2]) > self.template_reach:
+                    self._take_template(self.last_left, rect)  # moved too far for the kept patch
+                found, origin = (yield self._follow(left, rect, pu)), self.template_at[:2]
+                if not found.valid and hint is not None and abs(hint - own) > FOLLOW_GATE_PX:
+                    guided = self._guided_follow(left, rect, hint)  # the motion changed: where the box went
+            if guided is not None:
+                pu = self.u + hint
+                found, origin = (yield guided[0]), guided[1]
             if not found.valid:  # no sure match (flat, ambiguous): carry the point on its motion
                 self.follow_failures += 1
                 self.u = pu
                 if self.follow_failures > FOLLOW_FAILURES_TO_SEARCH:
                     self.searching = True
-            elif self._off_track(found, pu):
+            elif self._off_track(found, pu, origin, guided is not None, hint):
                 self.searching = True
             else:
                 self.follow_failures = 0
                 self.followed = True
                 self.follow_costs.append(found.cost / self.s.window**4)  # ZSSD -> DN^2 per pixel
-                self.u, self.v = found.x_px + self.template_at[0], found.y_px + self.template_at[1]
+                self.u, self.v = found.x_px + origin[0], found.y_px + origin[1]
         if self.searching:
             for u, v in candidates() if candidates is not None else []:
                 if (yield from self._try(u, v, left, right, rect)):
@@ -248,17 +263,55 @@ class TrackPoint(PointFilter):
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
         return Follow(self.template, current, tx - x0, ty - y0, pu - tx, self.follow_settings)
 
-    def _off_track(self, found: PointTrack, pu: float) -> bool:
+    def _guided_follow(self, left: np.ndarray, rect: Rectifier,
+                       step_px: float) -> tuple[Follow, tuple[int, int]] | None:
+        """A follow of the point's window in the previous pair, searched around where the detector's
+        box says it went (`step_px` columns, `TrackTable` measures it), and the patches' origin; None
+        without the previous pair's image.
+
+        Why: the point's own motion needs three follows, and at 1 fps (photo mode) a ship at 500 m
+        crosses 30 px per pair, far beyond the search radius around a newborn's zero motion; a
+        turning ship's image motion changes by more than the radius from one pair to the next. The
+        box's motion is a prediction the same radius can search around (tools/evaluate
+        approach-2048, 0-1 km)."""
+        if self.last_left is None or self.last_left_frame != self.frame - 1:
+            return None
+        h, r = self.s.window // 2, self.s.follow_radius_px
+        ui, vi = int(round(self.u)), int(round(self.v))
+        mx, my = h + r + FOLLOW_MARGIN_PX + abs(int(round(step_px))), h + r + FOLLOW_MARGIN_PX
+        prev = rect.patch(self.last_left, 0, ui - mx, vi - my, 2 * mx + 1, 2 * my + 1)
+        cur = rect.patch(left, 0, ui - mx, vi - my, 2 * mx + 1, 2 * my + 1)
+        return Follow(prev, cur, self.u - (ui - mx), self.v - (vi - my), step_px, self.follow_settings), \
+            (ui - mx, vi - my)
+
+    def _off_track(self, found: PointTrack, pu: float, origin: tuple[int, int], guided: bool,
+                   box_step_px: float | None) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
-        track's own motion puts it (the match jumped to another object)."""
+        track's own motion puts it and from where the detector's box does (the match jumped to
+        another object; a turning ship at 1 fps leaves its own motion by pixels in a pair, and the
+        box follows it). Not asked of a guided follow, whose prediction is the box's."""
         cost = found.cost / self.s.window**4
         if len(self.follow_costs) >= 5:
             typical = median(self.follow_costs)
             if cost > OCCLUSION_COST_FACTOR * typical + OCCLUSION_COST_FLOOR:
                 return True
-        x0, y0, _, _ = self.template_at
-        jump = math.hypot(found.x_px + x0 - pu, found.y_px + y0 - self.v)
-        return len(self.columns) >= 3 and jump > FOLLOW_GATE_PX
+        x, y = found.x_px + origin[0], found.y_px + origin[1]
+        jump = math.hypot(x - pu, y - self.v)
+        if box_step_px is not None and abs(box_step_px - (pu - self.u)) > FOLLOW_GATE_PX:
+            # the box says the motion changed (self.u is still the previous pair's position)
+            jump = min(jump, math.hypot(x - self.u - box_step_px, y - self.v))
+        return not guided and len(self.columns) >= 3 and jump > FOLLOW_GATE_PX + self._motion_lag_px()
+
+    def _motion_lag_px(self) -> float:
+        """How far a ship accelerating at MAX_SHIP_ACCEL_MPS2 across the view leaves the step the
+        column line predicts: the line's slope is the mean image motion of its n follows, n/2 pairs
+        before the coming step's, so the step is off by a_img n T^2 / 2 with a_img = d a / L_B (the
+        image acceleration, as |u'| <= d v / L_B). A few hundredths of a pixel at 10 fps; at 1 fps a
+        turning ship at 500 m is pixels off, which is no jump to another object."""
+        d = self.disparity if self.disparity is not None else self.raw_disparity
+        if d is None or not d > 0 or self.s.baseline_m <= 0:
+            return 0.0
+        return 0.5 * len(self.columns) * d * MAX_SHIP_ACCEL_MPS2 / self.s.baseline_m / self.s.fps**2
 
     def _take_template(self, left: np.ndarray, rect: Rectifier) -> None:
         """Keep the rectified patch around the point: the core tracker searches it again in later
@@ -275,7 +328,7 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
 
     def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> Steps:
-        self.last_left = left
+        self.last_left, self.last_left_frame = left, self.frame
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
         # straddles the ship's outline); its appearance changes slowly, so refresh it now and then
@@ -324,7 +377,7 @@ class TrackPoint(PointFilter):
         if self.disparity is not None and self.disparity > 0 and self.s.baseline_m > 0:
             limit = self.disparity * MAX_SHIP_SPEED_MPS / self.s.baseline_m  # |u'| <= f v / Z = d v / L_B
             rate = min(max(rate, -limit), limit)
-        self.u_filtered, self.u_rate_pxps = float(intercept), rate
+        self.u_filtered, self.u_rate_pxps, self.moved = float(intercept), rate, True
         if n >= REFIT_COLUMNS:
             self.u_rate_known_pxps = rate
             self.u_rate_sigma_pxps = slope_sigma(self.columns, intercept, slope, COLUMN_NOISE_PX) * self.s.fps

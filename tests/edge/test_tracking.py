@@ -239,3 +239,73 @@ def test_a_ship_shrunk_into_the_spanning_window_takes_it_after_some_passes_and_k
     for _ in range(2 * WINDOW_VOTES):
         table._confirm_start(track, wide, left)
     assert point.s.window == spanning
+
+
+@given(share=st.floats(0.0, 1.0), left_px=st.floats(-40.0, 40.0), right_px=st.floats(-40.0, 40.0),
+       pairs=st.integers(1, 5))
+@settings(max_examples=40, deadline=None)
+def test_box_step_is_the_box_ends_motion_at_the_point_per_pair(share: float, left_px: float, right_px: float,
+                                                               pairs: int) -> None:
+    """A track's point a share along its box: the box's next ends moved by left_px and right_px over
+    `pairs` pairs tell the point it moved by the ends' motion interpolated at its place, per pair; a
+    box that overlaps it too little (another ship) tells it nothing."""
+    table = _table()
+    box = np.array([100.0, 150.0, 300.0, 175.0])
+    point = TrackPoint(100.0 + 200.0 * share, 160.0, table.ps, table.designs)
+    track = Track(1, 0, point, box, 5)
+    table.tracks = [track]
+    point.frame += pairs - 1  # the pairs since the box, less the coming one
+    table._box_steps([box + np.array([left_px, 0.0, right_px, 0.0])], 0)
+    expected = ((1.0 - share) * left_px + share * right_px) / pairs
+    assert point.box_step_px == pytest.approx(expected, abs=1e-9)
+    point.box_step_px = None
+    table._box_steps([box + np.array([205.0, 0.0, 205.0, 0.0])], 0)
+    assert point.box_step_px is None
+
+
+def test_a_newborn_at_1_fps_lives_while_its_filter_takes_its_start_samples() -> None:
+    """The Kalman starts from init_samples measurements: 4 s after birth at 1 fps, and one pair
+    without a match (here a blank right image) makes it 5 s, longer than coast_s. Its samples count
+    as measurements, so the track lives to take its first update."""
+    table = _table()
+    table.ps = PointSettings(fps=1.0, max_disparity=64, baseline_m=B, focal_px=F)
+    left, right = _pair(lambda v: 14.0)
+    blank = np.full_like(right, 128)
+    box = np.array([150.0, 150.0, 230.0, 175.0])
+    point = TrackPoint(*table._reference(left, box), table.ps, table.designs)
+    assert point.step(left, right, table.rect) and point.collected
+    track = Track(1, 0, point, box, 5)
+    table.tracks = [track]
+    init = point.kalman.design.init_samples
+    for k in range(1, init + 1):
+        table.step(left, blank if k == 2 else right, int(k * 1e9), boxes=[box])
+        assert track.alive and track.status is TrackStatus.ACQUIRING
+        assert point.collected == (k not in (2, init))
+    assert init / table.ps.fps > table.s.coast_s
+    assert point.updates == 1  # the filter started on its init_samples-th sample
+
+
+
+def test_a_lost_track_lives_while_its_restarting_filter_takes_its_start_samples() -> None:
+    """An L track is dropped drop_s after it turned L, but not while its Kalman restarts: its
+    init_samples take init_samples / fps (5 s at 1 fps, as long as drop_s); once no sample came for
+    that long, drop_s holds again."""
+    table = _table()
+    table.ps = PointSettings(fps=1.0, max_disparity=64, baseline_m=B, focal_px=F)
+    left, right = _pair(lambda v: 14.0)
+    box = np.array([150.0, 150.0, 230.0, 175.0])
+    point = TrackPoint(*table._reference(left, box), table.ps, table.designs)
+    track = Track(7, 0, point, box, 5)
+    track.status, track.lost_since_ns = TrackStatus.LOST, 0
+    init = point.kalman.design.init_samples
+    for _ in range(init - 1):
+        assert point.step(left, right, table.rect) and point.collected and not point.kalman.running
+    late_ns = int((table.s.drop_s + 0.5) * 1e9)
+    table._lifecycle(track, late_ns)
+    assert track.alive  # restarting: drop_s has passed, the samples' time has not
+    blank = np.full_like(right, 128)
+    for _ in range(init):
+        point.step(left, blank, table.rect)  # no more samples (nothing to match)
+        assert not point.collected
+    table._lifecycle(track, late_ns)
+    assert not track.alive
