@@ -206,14 +206,15 @@ class Pipeline:
         fixes = []
         for t, (x_m, y_m, z_m), r_m, brg, la, lo, sog_kn, cog_deg, sog_sd, sig_m, d_px in rows:
             moving = filtered and t.point.updates >= moving_after and sog_sd <= MAX_SOG_SIGMA_KN
-            box = t.box.tolist()
+            x0_rel, _, x1_rel, _ = t.box_rel.tolist()  # t.box's columns, the same sums in Python floats
+            u_px = t.point.u
             fixes.append(ShipFix(
                 t_ns=t_ns + self.utc_offset_ns, track_id=t.id, status=t.status,
                 x_m=x_m, y_m=y_m, z_m=z_m, range_m=r_m, bearing_deg=brg, lat_deg=la, lon_deg=lo,
                 sog_kn=sog_kn if moving else None,
                 cog_deg=cog_deg if moving and sog_kn >= MIN_COURSE_KN else None,
                 sigma_m=sig_m, disparity_px=d_px, age_s=t.age_s(t_ns),
-                length_m=(box[2] - box[0]) * z_m / f))
+                length_m=((x1_rel + u_px) - (x0_rel + u_px)) * z_m / f))
         return fixes
 
     def _log_once(self, key: str, msg: str, *args: object) -> None:
