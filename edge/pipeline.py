@@ -197,20 +197,24 @@ class Pipeline:
             vx_sd = np.hypot(b * u_rate_sd / d, b * (u - self.rect.cx) * d_rate_sd / d**2)
             sog_sigma_kn = np.hypot(vx_sd, vz_sd) / KNOT_MPS
         sog, cog = speed_course(np.stack([vx, np.zeros_like(vx), vz], -1), lat, lon, self.site)
+        # per-fix values as Python floats in one call per array (the same doubles as float(a[i]), without
+        # a numpy scalar per field and fix)
+        rows = zip(live, world.tolist(), *(a.tolist() for a in (range_m, bearing, lat, lon, sog, cog,
+                                                                sog_sigma_kn, sigma_m, d)), strict=True)
+        moving_after = MOTION_AFTER_S * self.fps
+        filtered = self.point_settings.filter != "none"
         fixes = []
-        for i, t in enumerate(live):
-            moving = (self.point_settings.filter != "none" and t.point.updates >= MOTION_AFTER_S * self.fps
-                      and sog_sigma_kn[i] <= MAX_SOG_SIGMA_KN)
-            box = t.box
+        for t, (x_m, y_m, z_m), r_m, brg, la, lo, sog_kn, cog_deg, sog_sd, sig_m, d_px in rows:
+            moving = filtered and t.point.updates >= moving_after and sog_sd <= MAX_SOG_SIGMA_KN
+            x0_rel, _, x1_rel, _ = t.box_rel.tolist()  # t.box's columns, the same sums in Python floats
+            u_px = t.point.u
             fixes.append(ShipFix(
                 t_ns=t_ns + self.utc_offset_ns, track_id=t.id, status=t.status,
-                x_m=float(world[i, 0]), y_m=float(world[i, 1]), z_m=float(world[i, 2]),
-                range_m=float(range_m[i]), bearing_deg=float(bearing[i]),
-                lat_deg=float(lat[i]), lon_deg=float(lon[i]),
-                sog_kn=float(sog[i]) if moving else None,
-                cog_deg=float(cog[i]) if moving and sog[i] >= MIN_COURSE_KN else None,
-                sigma_m=float(sigma_m[i]), disparity_px=float(d[i]), age_s=t.age_s(t_ns),
-                length_m=float((box[2] - box[0]) * world[i, 2] / f)))
+                x_m=x_m, y_m=y_m, z_m=z_m, range_m=r_m, bearing_deg=brg, lat_deg=la, lon_deg=lo,
+                sog_kn=sog_kn if moving else None,
+                cog_deg=cog_deg if moving and sog_kn >= MIN_COURSE_KN else None,
+                sigma_m=sig_m, disparity_px=d_px, age_s=t.age_s(t_ns),
+                length_m=((x1_rel + u_px) - (x0_rel + u_px)) * z_m / f))
         return fixes
 
     def _log_once(self, key: str, msg: str, *args: object) -> None:

@@ -155,14 +155,13 @@ class PointFilter:
             if z is not None and not self.kalman.running and not self._fits_memory(z):
                 z = None  # a restart must pick up this ship, not whatever the point now sees
             est = self.kalman.update(z)
-            memory = self._memory_now()
             self.rate_sigma_pxps = self.kalman.rate_sigma_pxps() if est.valid else math.inf
             if est.valid and est.accepted:
                 rate = self._plausible_rate(est.disparity_px, est.rate_pxps)
                 self.disparity, self.rate_pxps, self.sigma_px = est.disparity_px, rate, est.sigma_px
                 self.updates += 1
                 self.memory = (self.frame, est.disparity_px, rate, est.sigma_px)
-            elif est.valid and memory is not None:
+            elif est.valid and (memory := self._memory_now()) is not None:
                 # coasting: carry the last accepted estimate at its (physically bounded) rate; the
                 # filter's own state may hold a rate a ramp of mixed windows talked it into
                 self.disparity, self.sigma_px = memory[0], max(est.sigma_px, memory[1])

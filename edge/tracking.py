@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from edge.anchor import reference_points, ship_window, spanning_width
+from edge.anchor import median, reference_points, ship_window, spanning_width
 from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
@@ -347,7 +347,7 @@ class TrackTable:
             return "confirmations"
         if not p.usable:
             return "usable"
-        if not track.slopes or abs(float(np.median(track.slopes))) > VERTICAL_SHARE * self._sea_slope():
+        if not track.slopes or abs(median(track.slopes)) > VERTICAL_SHARE * self._sea_slope():
             return "vertical"
         height, sigma = self.height_m(p)
         return "height" if height < max(s.min_height_m, 3.0 * sigma) else None

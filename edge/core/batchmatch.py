@@ -29,7 +29,7 @@ from collections.abc import Sequence
 
 import cv2
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
+from numpy.lib.stride_tricks import as_strided
 
 from edge.core.batchsubpix import gauss6_q8_batch, parabola3_q8
 from edge.core.costs import COSTS
@@ -69,12 +69,18 @@ def batch_costs(templates: np.ndarray, regions: np.ndarray, cost: str = "zssd") 
     # window up to 258 rows, and the diagonal sums are too up to 16 x 16 (float64 beyond)
     exact = np.float32 if h * 255 * 255 < 2**24 else np.float64
     summed = np.float32 if h * w * 255 * 255 < 2**24 else np.float64
-    rows = sliding_window_view(regions.astype(exact), h, axis=1).transpose(0, 3, 1, 2)
+    # rows[k, i, v, j] = R[k, v + i, j]: the windows' rows as a strided view (what sliding_window_view
+    # makes, without its ~10 us of argument handling per call)
+    region = regions.astype(exact)
+    s_item, s_row, s_col = region.strides
+    rows = as_strided(region, (n_items, h, nv, width), (s_item, s_row, s_row, s_col), writeable=False)
     prod = np.matmul(templates.astype(exact).transpose(0, 2, 1), rows.reshape(n_items, h, nv * width))
+    # the diagonal sums in one reduction over a strided view: entry [i, k, v, u] is prod[i, k, v, u + k]
+    # (summed in `summed`, where every partial sum is an exact integer, so the order cannot matter)
     prod = prod.reshape(n_items, w, nv, width)
-    cross = prod[:, 0, :, :nu].astype(summed)
-    for k in range(1, w):
-        cross += prod[:, k, :, k:k + nu]
+    s_item, s_col, s_row, s_u = prod.strides
+    diagonals = as_strided(prod, (n_items, w, nv, nu), (s_item, s_col + s_u, s_row, s_u), writeable=False)
+    cross = diagonals.sum(axis=1, dtype=summed)
     t = templates.astype(np.float64)
     # window sums of R and R^2 from one integral image of the regions stacked (h zero rows below
     # so every item's windows have their bottom corner row); rectangles never cross items
