@@ -4,7 +4,7 @@ Every pair, each live track follows its reference point and measures its
 disparity (`edge.trackpoint`). On detection pairs (every k-th), detections
 are associated to tracks by the Hungarian method
 (`scipy.optimize.linear_sum_assignment`) on 1 - overlap of the detection's
-box and the track's box carried along with its point (`_overlap`: the IoU of
+box and the track's box carried along with its point (`edge.boxes.overlaps`: the IoU of
 their column spans, for boxes in the same rows), gated at a minimum overlap
 (or the point inside the box). Then:
 
@@ -41,6 +41,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from edge.anchor import median, reference_points, ship_window, spanning_width
+from edge.boxes import contains, inside, overlaps
 from edge.core.geo import height_above_sea_m
 from edge.core.rectify import Rectifier
 from edge.detect import sea_range_at
@@ -48,7 +49,7 @@ from edge.fix import TrackStatus
 from edge.pointbatch import answer_all, step_points, stereo_request
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
-MIN_OVERLAP = 0.2  # association gate (`_overlap`), or the track's point inside the detection's box
+MIN_OVERLAP = 0.2  # association gate (`edge.boxes.overlaps`), or the track's point inside the detection's box
 BIRTH_SLOPE_SHARE = 0.6  # a candidate whose disparity grows this fast down its rows is sea: no birth
 VERTICAL_SHARE = 0.25  # a ship's disparity changes by less than this share of the sea's per row
 SLOPE_ROWS = 4  # rows above and below the point for that test
@@ -98,20 +99,6 @@ class Track:
 
     def age_s(self, t_ns: int) -> float:
         return (t_ns - self.born_ns) / 1e9
-
-
-def _overlap(a: np.ndarray, b: np.ndarray) -> float:
-    """How much two ship boxes coincide: the IoU of their column spans, 0 unless their rows are
-    within one box height of each other. Ships move across the image, rarely up or down it, and a
-    box's height jumps with what the detector saw of the hull; its columns are what is stable."""
-    inter = min(a[2], b[2]) - max(a[0], b[0])
-    if inter <= 0 or abs((a[1] + a[3]) - (b[1] + b[3])) > (a[3] - a[1]) + (b[3] - b[1]) + 4.0:
-        return 0.0
-    return inter / (max(a[2], b[2]) - min(a[0], b[0]))
-
-
-def _contains(box: np.ndarray, u: float, v: float) -> bool:
-    return bool(box[0] <= u < box[2] and box[1] <= v < box[3])
 
 
 class TrackTable:
@@ -167,12 +154,14 @@ class TrackTable:
         pairs between the two boxes. The box is the one overlapping the track's box most (the
         association's gate); its follow searches there when the point's own motion is not known yet
         or failed."""
-        for track in self.tracks:
+        if not self.tracks:
+            return
+        shares = overlaps(np.array([t.box for t in self.tracks]), np.array(boxes, float))
+        for track, row in zip(self.tracks, shares, strict=True):
             p = track.point
             pairs = p.frame + skipped + 1 - track.det_frame
-            overlaps = [_overlap(track.box, b) for b in boxes]
-            j = int(np.argmax(overlaps))
-            if pairs <= 0 or overlaps[j] < MIN_OVERLAP:
+            j = int(np.argmax(row))
+            if pairs <= 0 or row[j] < MIN_OVERLAP:
                 continue
             old, new = track.det_box, boxes[j]
             share = min(max((p.u - old[0]) / max(old[2] - old[0], 1.0), 0.0), 1.0)
@@ -183,16 +172,12 @@ class TrackTable:
         confirmed = [False] * len(tracks)
         taken = [False] * len(boxes)
         if tracks and boxes:
-            cost = np.ones((len(tracks), len(boxes)))
-            for i, track in enumerate(tracks):
-                tb = track.box
-                for j, db in enumerate(boxes):
-                    overlap = _overlap(tb, db)
-                    if overlap >= MIN_OVERLAP or _contains(db, track.point.u, track.point.v):
-                        cost[i, j] = 1.0 - overlap
+            overlap = overlaps(np.array([t.box for t in tracks]), np.array(boxes, float))
+            held = inside(np.array(boxes, float), [t.point.u for t in tracks], [t.point.v for t in tracks])
+            cost = np.where((overlap >= MIN_OVERLAP) | held, 1.0 - overlap, 1.0)
             rows, cols = linear_sum_assignment(cost)
             pairs = [(i, j) for i, j in zip(rows.tolist(), cols.tolist(), strict=True)
-                     if cost[i, j] < 1.0 or _contains(boxes[j], tracks[i].point.u, tracks[i].point.v)]
+                     if cost[i, j] < 1.0 or held[i, j]]
             # each pair's confirmation in two halves around its slope test, whose matches (two per
             # tentative track) are answered together: the tracks share no state, so the same results
             wants = [self._confirm_start(tracks[i], boxes[j], left) for i, j in pairs]
@@ -203,13 +188,14 @@ class TrackTable:
                 confirmed[i] = self._confirm_end(tracks[i], boxes[j], next(slopes) if want else None, t_ns)
         for i, track in enumerate(tracks):
             # ships in line merge into one blob: it confirms every track whose point it covers
-            if not confirmed[i] and any(_contains(db, track.point.u, track.point.v) for db in boxes):
+            if not confirmed[i] and any(contains(db, track.point.u, track.point.v) for db in boxes):
                 confirmed[i] = True
                 track.last_confirmed_ns = t_ns
             track.confirmations.append(confirmed[i])
         for j, db in enumerate(boxes):
-            if taken[j] or any(_overlap(t.box, db) > 0 or _contains(db, t.point.u, t.point.v)
-                               for t in tracks):
+            if taken[j] or tracks and (
+                    bool((overlaps(np.array([t.box for t in tracks]), db[None]) > 0).any())
+                    or any(contains(db, t.point.u, t.point.v) for t in tracks)):
                 continue
             if len(self.tracks) < self.s.max_tracks:
                 self._birth(left, right, t_ns, db)
@@ -219,7 +205,7 @@ class TrackTable:
         its tracks, their slope tests answered together between them); whether it wants the slope
         test."""
         p = track.point
-        if p.prediction() is None and (p.searching or not _contains(box, p.u, p.v)):
+        if p.prediction() is None and (p.searching or not contains(box, p.u, p.v)):
             # a point without a range history that is off the ship, or lost what it followed (a
             # glint gone): start over on the ship, as a searching point with a prediction cannot
             # (one with a history stays: it gets candidates from this box next pair)

@@ -19,19 +19,10 @@ from edge.fix import TrackStatus
 from edge.pipeline import Pipeline
 from edge.replay import recording_calibration
 from edge.sim.recording import read_truth
-from edge.tracking import CLIPPED_DN, WINDOW_VOTES, TableSettings, Track, TrackTable, _overlap
+from edge.tracking import CLIPPED_DN, WINDOW_VOTES, TableSettings, Track, TrackTable
 from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 W, H, F, B, HEIGHT = 400, 300, 900.0, 8.0, 25.0
-
-
-def test_overlap_is_a_column_iou_for_boxes_in_the_same_rows() -> None:
-    a = np.array([10.0, 100.0, 50.0, 110.0])
-    assert _overlap(a, a) == pytest.approx(1.0)
-    b = np.array([30.0, 98.0, 70.0, 112.0])
-    assert _overlap(a, b) == pytest.approx(20 / 60) == pytest.approx(_overlap(b, a))
-    assert _overlap(a, a + [0, 40, 0, 40]) == 0.0  # far below: another ship
-    assert _overlap(a, a + [45, 0, 45, 0]) == 0.0  # no common column
 
 
 def _pair(disparity_of_row) -> tuple[np.ndarray, np.ndarray]:
