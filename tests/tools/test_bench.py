@@ -36,3 +36,19 @@ def test_layout_rows_are_clear_and_ships_apart(size: int) -> None:
         assert max(abs(c) for c in cols) + length_px / 2 <= cal.rig.width / 2
     for (top, _), (_, bottom) in zip(spans, spans[1:], strict=False):
         assert top - bottom >= gap_px                                        # rows clear of each other
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--sizes", "720x480"], "expected comma-separated integers"),
+    (["--sizes", "1024"], "1024 is not one of (720, 2048)"),
+    (["--tracks", "8,0"], "0 is not a positive integer"),
+])
+def test_bad_sizes_and_counts_are_refused_by_name(argv: list[str], message: str,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """A width without a calibration used to be benched on the 2048 one, and a typo ended in a
+    traceback: both are now argparse errors naming the option."""
+    with pytest.raises(SystemExit) as stop:
+        _bench().main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and argv[0] in err
