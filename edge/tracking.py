@@ -172,8 +172,9 @@ class TrackTable:
         confirmed = [False] * len(tracks)
         taken = [False] * len(boxes)
         if tracks and boxes:
-            overlap = overlaps(np.array([t.box for t in tracks]), np.array(boxes, float))
-            held = inside(np.array(boxes, float), [t.point.u for t in tracks], [t.point.v for t in tracks])
+            det = np.array(boxes, float)
+            overlap = overlaps(np.array([t.box for t in tracks]), det)
+            held = inside(det, [t.point.u for t in tracks], [t.point.v for t in tracks])
             cost = np.where((overlap >= MIN_OVERLAP) | held, 1.0 - overlap, 1.0)
             rows, cols = linear_sum_assignment(cost)
             pairs = [(i, j) for i, j in zip(rows.tolist(), cols.tolist(), strict=True)

@@ -37,7 +37,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from edge.anchor import line_fit, median, slope_sigma
-from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
 from edge.pointbatch import (
@@ -127,7 +126,6 @@ class TrackPoint(PointFilter):
         self.rejects = 0
         self.u_filtered: float | None = None
         self.u_rate_pxps = 0.0
-        self.moved = False  # u_rate_pxps has been measured (a line through >= 3 follows)
         # the image motion the speed is computed from: the last line of >= REFIT_COLUMNS follows,
         # kept while a new point's line is shorter, and its 1-sigma (inf: no such line yet)
         self.u_rate_known_pxps = 0.0
@@ -157,6 +155,11 @@ class TrackPoint(PointFilter):
             self._take_template(self.last_left, rect)
         else:
             self.template = None
+
+    @property
+    def moved(self) -> bool:
+        """u_rate_pxps has been measured: a column line through >= 3 follows has been fitted."""
+        return self.u_filtered is not None
 
     # ------------------------------------------------------------ per pair
     def step(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, skipped: int = 0,
@@ -377,12 +380,7 @@ class TrackPoint(PointFilter):
         if self.disparity is not None and self.disparity > 0 and self.s.baseline_m > 0:
             limit = self.disparity * MAX_SHIP_SPEED_MPS / self.s.baseline_m  # |u'| <= f v / Z = d v / L_B
             rate = min(max(rate, -limit), limit)
-        self.u_filtered, self.u_rate_pxps, self.moved = float(intercept), rate, True
+        self.u_filtered, self.u_rate_pxps = float(intercept), rate
         if n >= REFIT_COLUMNS:
             self.u_rate_known_pxps = rate
             self.u_rate_sigma_pxps = slope_sigma(self.columns, intercept, slope, COLUMN_NOISE_PX) * self.s.fps
-
-    def match_at(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float, v: float,
-                 pred: float | None) -> Match:
-        """The right match of left point (u, v), narrowed to `pred` when given (per point)."""
-        return stereo_request(self.s, left, right, rect, u, v, pred, self.match_settings).run()

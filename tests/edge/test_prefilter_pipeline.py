@@ -19,8 +19,9 @@ from edge.core.rectify import Rectifier
 from edge.errors import EX_CONFIG, ConfigError
 from edge.fix import TrackStatus
 from edge.pipeline import Pipeline
+from edge.pointbatch import match_settings, stereo_request
 from edge.replay import recording_calibration
-from edge.trackpoint import Designs, PointSettings, TrackPoint
+from edge.trackpoint import PointSettings
 
 FRAMES = 30
 
@@ -112,9 +113,8 @@ def test_xsobel_match_moves_less_under_a_response_and_vignetting_difference(akas
         got = {}
         for prefilter in moved:
             s = PointSettings(prefilter=prefilter)
-            tp = TrackPoint(u, v, s, Designs(s))
-            a = tp.match_at(pair.left, pair.right, pipeline.rect, u, v, None)
-            b = tp.match_at(pair.left, other, pipeline.rect, u, v, None)
+            a, b = (stereo_request(s, pair.left, image, pipeline.rect, u, v, None, match_settings(s)).run()
+                    for image in (pair.right, other))
             got[prefilter] = (a.disparity_px, b.disparity_px) if a.valid and b.valid else None
         if None in got.values():
             continue
