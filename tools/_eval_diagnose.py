@@ -42,7 +42,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from edge.core.match import match_point
 from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
 from edge.pointbatch import match_settings, stereo_request
@@ -112,15 +111,10 @@ class Diagnoser:
         on = np.flatnonzero(hits.ship == ship)
         if on.size < 2 or on[0] == 0 or on[-1] == xs.size - 1:
             return math.nan, math.nan
+        s = replace(p.s, window=OUTLINE_WINDOW, search_radius_px=4, max_sigma_px=2.0)
         measured = []
-        for k in (on[0], on[-1]):
-            h, d_hi = OUTLINE_WINDOW // 2, int(math.ceil(d_bridge)) + 8
-            x0, y0 = int(xs[k]) - h - d_hi - 4, int(round(p.v)) - h
-            lp, rp = (self.rect.patch(img, side, x0, y0, 2 * h + d_hi + 9, OUTLINE_WINDOW)
-                      for side, img in enumerate(images))
-            m = match_point(lp, rp, xs[k] - x0, h, window=OUTLINE_WINDOW, max_disparity=d_hi,
-                            predicted_disparity=d_bridge, search_radius=4, cost=p.s.cost,
-                            subpixel=p.s.subpixel, noise_dn=p.s.noise_dn, max_sigma_px=2.0)
+        for k in (on[0], on[-1]):  # the outline's own column, in the point's (whole) row
+            m = stereo_request(s, *images, self.rect, xs[k], round(p.v), d_bridge, match_settings(s)).run()
             measured.append(m.disparity_px - d_bridge if m.valid else math.nan)
         return measured[0], measured[1]
 
