@@ -32,3 +32,9 @@ def test_acquiring_time_is_charged_to_the_gates(short_recording: Path, capsys) -
     assert tool.main([str(short_recording), "--tracks", "1", "--pairs", "0", "1"]) == 0
     out = capsys.readouterr().out
     assert "id1" in out and "track" in out
+
+
+def test_a_track_id_typo_is_an_argparse_error(capsys) -> None:
+    with pytest.raises(SystemExit) as stop:
+        load_tool("track-gates").main(["/nonexistent", "--tracks", "2x"])
+    assert stop.value.code == 2 and "--tracks" in capsys.readouterr().err
