@@ -1,8 +1,8 @@
 """Pipeline: FramePair -> list[ShipFix], the whole measurement chain of DESIGN.md.
 
-    detect (every k-th pair, decimated left image)     edge.detect
-    -> TrackTable: associate, birth/confirm/coast/drop  edge.tracking
-    -> per track: left point, right match, filter       edge.trackpoint
+    detect (every k-th pair, decimated left image)     edge.measure.detect
+    -> TrackTable: associate, birth/confirm/coast/drop  edge.measure.tracks
+    -> per track: left point, right match, filter       edge.measure.point
     -> triangulate (eq. 4.1) and error (eq. 4.5)        edge.core.triangulation
     -> range, bearing, lat/lon, SOG/COG                  edge.core.geo
 
@@ -26,22 +26,23 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from drivers.camera.base import FramePair
-from edge.calibration import Calibration
-from edge.config import PipelineConfig
+from edge.config.app import PipelineConfig
+from edge.config.calibration import Calibration
 from edge.core.geo import KNOT_MPS, range_bearing, speed_course, world_to_latlon
 from edge.core.rectify import Rectifier
+from edge.core.shipmotion import world_velocity, world_velocity_sigma
 from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
-from edge.detect import Detector
 from edge.fix import ShipFix, TrackStatus
-from edge.tracking import TableSettings, Track, TrackTable
-from edge.trackpoint import FILTERS, SUBPIXELS, PointSettings
+from edge.measure.detect import Detector
+from edge.measure.settings import FILTERS, SUBPIXELS, PointSettings
+from edge.measure.tracks import TableSettings, Track, TrackTable
 
 log = logging.getLogger(__name__)
 
@@ -182,20 +183,15 @@ class Pipeline:
         sigma_m = np.where(np.isfinite(err).all(axis=-1), np.hypot(err[..., 0], err[..., 2]), math.inf)
         range_m, bearing = range_bearing(world, self.site.heading_deg)
         lat, lon, _ = world_to_latlon(world, self.site)
-        # world velocity from d' and u': Z = fB/d, X = B (u - cx) / d - B / 2
         d_rate = np.array([t.point.rate_pxps for t in live])
         u_rate = np.array([t.point.u_rate_known_pxps for t in live])
-        vz = -f * b * d_rate / d**2
-        vx = b * u_rate / d - b * (u - self.rect.cx) * d_rate / d**2
-        # the 1-sigma of Z' = -f B d' / d^2 and of X' from the filters' rate sigmas (inf: not known,
-        # as with the Butterworth filter): a far, noisy track's speed, or the image motion's right
-        # after a jump, would be read as tens of knots; withheld instead, as TTM/Modbus allow
+        vx, vz = world_velocity(f, b, u, self.rect.cx, d, d_rate, u_rate)
+        # the speed's 1-sigma from the filters' rate sigmas (inf: not known, as with the Butterworth
+        # filter): a far, noisy track's speed, or the image motion's right after a jump, would be
+        # read as tens of knots; withheld instead, as TTM/Modbus allow
         d_rate_sd = np.array([t.point.rate_sigma_pxps for t in live])
         u_rate_sd = np.array([t.point.u_rate_sigma_pxps for t in live])
-        with np.errstate(invalid="ignore"):  # inf x 0 on the optical axis: nan, which is not <= a bound
-            vz_sd = f * b * d_rate_sd / d**2
-            vx_sd = np.hypot(b * u_rate_sd / d, b * (u - self.rect.cx) * d_rate_sd / d**2)
-            sog_sigma_kn = np.hypot(vx_sd, vz_sd) / KNOT_MPS
+        sog_sigma_kn = world_velocity_sigma(f, b, u, self.rect.cx, d, d_rate_sd, u_rate_sd) / KNOT_MPS
         sog, cog = speed_course(np.stack([vx, np.zeros_like(vx), vz], -1), lat, lon, self.site)
         # per-fix values as Python floats in one call per array (the same doubles as float(a[i]), without
         # a numpy scalar per field and fix)
@@ -223,18 +219,4 @@ class Pipeline:
             log.warning(msg, *args)
 
 
-def stage_pipelines(calibration: Calibration, config: PipelineConfig | None = None, *, fps: float = 10.0,
-                    site: Site | None = None) -> dict[str, Pipeline]:
-    """The thesis's three stages plus ours, side by side (tools/evaluate): whole-pixel, sub-pixel
-    (parabola, eq. 5.2), filtered (Butterworth, eq. 6.1), and the product (cancellation + Kalman)."""
-    cfg = config or PipelineConfig()
-    return {
-        "whole-pixel": Pipeline(calibration, cfg, fps=fps, site=site, subpixel="none", filter="none"),
-        "sub-pixel": Pipeline(calibration, cfg, fps=fps, site=site, subpixel="parabola", filter="none"),
-        "butterworth": Pipeline(calibration, replace(cfg, cost="ssd"), fps=fps, site=site,
-                                subpixel="parabola", filter="butterworth"),
-        "product": Pipeline(calibration, cfg, fps=fps, site=site),
-    }
-
-
-__all__ = ["Counters", "Pipeline", "TrackStatus", "stage_pipelines"]
+__all__ = ["Counters", "Pipeline", "TrackStatus"]

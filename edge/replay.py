@@ -17,43 +17,21 @@ directory that is not a recording is a configuration error (exit 78).
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
 from drivers.camera.replay import RecordingFormatError, ReplaySource
-from edge.calibration import Calibration, calibration_from_dict, site_from_dict
-from edge.config import AppConfig, PipelineConfig, load_config
+from edge.config.app import AppConfig, PipelineConfig, load_config
+from edge.config.calibration import Calibration, recording_calibration
+from edge.encode.tracks_csv import CSV_HEADER, csv_row
 from edge.errors import ConfigError
 from edge.fix import ShipFix
-from edge.outputs.nmea_out import NmeaSchedule, NmeaScheduler
+from edge.outputs.schedule import NmeaSchedule, NmeaScheduler
 from edge.pipeline import Counters, Pipeline
 
 log = logging.getLogger(__name__)
-
-CSV_HEADER = ("t_ns,track_id,status,x_m,y_m,z_m,range_m,bearing_deg,lat,lon,"
-              "sog_kn,cog_deg,sigma_m,disparity_px")
-
-
-def _num(value: float | None, decimals: int) -> str:
-    """Fixed decimals, empty when unknown (never 0 for unknown, never 'nan')."""
-    if value is None or not math.isfinite(value):
-        return ""
-    text = f"{value:.{decimals}f}"
-    return "0" + text[2:] if text.startswith("-0") and float(text) == 0.0 else text
-
-
-def csv_row(fix: ShipFix) -> str:
-    """One line of the tracks CSV (DESIGN.md column order), without the newline."""
-    return ",".join((
-        str(fix.t_ns), str(fix.track_id), fix.status.value,
-        _num(fix.x_m, 3), _num(fix.y_m, 3), _num(fix.z_m, 3), _num(fix.range_m, 3),
-        _num(fix.bearing_deg, 4), _num(fix.lat_deg, 8), _num(fix.lon_deg, 8),
-        _num(fix.sog_kn, 3), _num(fix.cog_deg, 3), _num(fix.sigma_m, 3), _num(fix.disparity_px, 5),
-    ))
-
 
 @dataclass
 class ReplaySummary:
@@ -77,17 +55,6 @@ class ReplaySummary:
             f"fixes {p.fixes} from {self.tracks} tracks; NMEA lines {self.nmea_lines}, "
             f"CSV rows {self.csv_rows}",
         ]
-
-
-def recording_calibration(root: str | Path, meta: dict) -> Calibration:
-    """The calibration (with its site) stored in a recording's meta.yaml."""
-    meta_file = Path(root) / "meta.yaml"
-    if "calibration" not in meta:
-        raise ConfigError(meta_file, "calibration", "the recording's calibration mapping")
-    cal = calibration_from_dict(meta["calibration"], meta_file, "calibration")
-    if meta.get("site") is not None:
-        cal = Calibration(cal.rig, site_from_dict(meta["site"], meta_file, "site"))
-    return cal
 
 
 def open_recording(root: str | Path) -> ReplaySource:

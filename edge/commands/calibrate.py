@@ -40,12 +40,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from edge.calibration import Calibration, calibration_from_dict, calibration_to_dict, site_from_dict
+from edge.config.calibration import Calibration, calibration_from_dict, calibration_to_dict, site_from_dict
+from edge.config.schema import load_yaml
 from edge.core.calibfit import CalibrationError, RigFit, fit_rig, relative_rotation_deg
 from edge.core.geodesy import geodetic_to_world
 from edge.core.site import Site
 from edge.errors import ConfigError
-from edge.schema import load_yaml
 
 WORLD_COLUMNS = (("x_m", "y_m", "z_m"), ("lat_deg", "lon_deg", "height_m"))
 PIXEL_COLUMNS = ("u_left", "v_left", "u_right", "v_right")

@@ -3,7 +3,7 @@
     mast-stereo check-config [--config FILE] [--calibration FILE]
 
 For a technician before restarting the service: the same loader the daemon
-uses (edge.config / edge.calibration), so exit 0 here means the daemon will
+uses (edge.config.app / edge.config.calibration), so exit 0 here means the daemon will
 accept the files, and any mistake is one line naming the file, the key, what
 was expected and what was found, with exit status 78. The summary lists the
 frame source, the rig (models, focal lengths, fields of view, rotations,
@@ -16,8 +16,8 @@ import argparse
 import math
 from pathlib import Path
 
-from edge.calibration import Calibration, load_calibration
-from edge.config import AppConfig, load_config
+from edge.config.app import AppConfig, load_config
+from edge.config.calibration import Calibration, load_calibration
 from edge.core.calibfit import relative_rotation_deg
 from edge.core.site import Site
 from edge.errors import ConfigError

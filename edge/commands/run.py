@@ -2,7 +2,7 @@
 
 Loads and checks the configuration, calibration and outputs before opening
 any device (a mistake exits 78 with one line naming file and key), then runs
-`edge.live.Appliance` until SIGTERM/SIGINT, the end of a finite source, or
+`edge.daemon.Appliance` until SIGTERM/SIGINT, the end of a finite source, or
 `--seconds`. READY=1, STATUS=, WATCHDOG=1 and STOPPING=1 go to systemd when
 $NOTIFY_SOCKET is set. `--print-nmea` also writes the NMEA sentences to
 stdout (the demo uses it).
@@ -17,8 +17,8 @@ import sys
 import threading
 
 from drivers.notify import SystemdNotifier
-from edge.config import load_config
-from edge.live import Appliance
+from edge.config.app import load_config
+from edge.daemon import Appliance
 from edge.outputs.nmea_stream import NmeaStreamOutput
 
 

@@ -13,11 +13,14 @@ from collections.abc import Callable, Iterable
 from typing import TextIO
 
 from edge.fix import ShipFix
-from edge.outputs.nmea_out import DEFAULT_SCHEDULE, NmeaSchedule, NmeaScheduler
+from edge.outputs.schedule import DEFAULT_SCHEDULE, NmeaSchedule, NmeaScheduler
 
 
 class NmeaStreamOutput:
-    """Writes each scheduled group to `stream` and flushes; `publish`/`health`/`close` like the others."""
+    """Writes each scheduled group to `stream` and flushes; an `Output` like the others."""
+
+    stage = "nmea"
+    unit = "nmea_stream_groups"
 
     def __init__(self, stream: TextIO, schedule: NmeaSchedule = DEFAULT_SCHEDULE,
                  clock: Callable[[], float] = time.monotonic) -> None:
@@ -26,7 +29,10 @@ class NmeaStreamOutput:
         self.lines = 0
         self.errors = 0
 
-    def publish(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
+    def start(self) -> None:
+        """Nothing to open: the stream is the caller's."""
+
+    def publish(self, fixes: Iterable[ShipFix], utc_ns: int = 0) -> list[tuple[str, ...]]:
         groups = self.scheduler.step(fixes)
         if not groups:
             return groups
@@ -43,4 +49,4 @@ class NmeaStreamOutput:
         return ("NMEA stream failing" if self.errors else None), {"stream_lines": self.lines}
 
     def close(self) -> None:
-        pass
+        """The stream is the caller's to close."""

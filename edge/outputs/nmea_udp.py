@@ -17,12 +17,12 @@ from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Any
 
 from drivers.udp import MulticastUdpSender, UdpSenderBase
+from edge.encode.nmea import next_line_count, tag_block, udpbc_datagram
 from edge.fix import ShipFix
-from edge.nmea import next_line_count, tag_block, udpbc_datagram
-from edge.outputs.nmea_out import DEFAULT_SCHEDULE, NmeaSchedule, NmeaScheduler, schedule_from_config
+from edge.outputs.schedule import DEFAULT_SCHEDULE, NmeaSchedule, NmeaScheduler, schedule_from_config
 
 if TYPE_CHECKING:
-    from edge.config import UdpConfig
+    from edge.config.app import UdpConfig
 
 TGTD_GROUP = "239.192.0.2"  # IEC 61162-450 transmission group for target data (verify against the standard)
 TGTD_PORT = 60002
@@ -30,6 +30,9 @@ TGTD_PORT = 60002
 
 class NmeaUdpOutput:
     """Scheduler + UDP sender for IEC 61162-450 datagrams."""
+
+    stage = "nmea"
+    unit = "nmea_udp_datagrams"
 
     def __init__(
         self,
@@ -58,7 +61,10 @@ class NmeaUdpOutput:
         return cls(schedule_from_config(cfg), group=cfg.group, port=cfg.port, interface=cfg.interface,
                    ttl=cfg.ttl, source=cfg.source, **kwargs)
 
-    def publish(self, fixes: Iterable[ShipFix]) -> list[bytes]:
+    def start(self) -> None:
+        """Nothing to open: the socket is made at construction and never blocks."""
+
+    def publish(self, fixes: Iterable[ShipFix], utc_ns: int = 0) -> list[bytes]:
         """Schedule this step's fixes and send one datagram per sentence; returns the datagrams."""
         datagrams = []
         for group in self.scheduler.step(fixes):

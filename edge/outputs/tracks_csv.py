@@ -10,25 +10,27 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from drivers.append_file import AppendFile
+from edge.encode.tracks_csv import CSV_HEADER, csv_row
 from edge.fix import ShipFix
-from edge.replay import CSV_HEADER, csv_row
 
 
 class TracksCsvOutput:
-    """`publish`/`health`/`close` like the other outputs."""
+    """Appends one CSV row per fix; an `Output` like the others."""
+
+    stage = "tracks_csv"
+    unit = "csv_rows"
 
     def __init__(self, path: str, *, file: AppendFile | None = None) -> None:
         self.file = file if file is not None else AppendFile(path, (CSV_HEADER + "\n").encode("ascii"))
 
-    def start(self) -> TracksCsvOutput:
+    def start(self) -> None:
         self.file.start()
-        return self
 
-    def publish(self, fixes: Iterable[ShipFix]) -> int:
-        rows = "".join(csv_row(fx) + "\n" for fx in fixes)
+    def publish(self, fixes: Iterable[ShipFix], utc_ns: int = 0) -> list[str]:
+        rows = [csv_row(fx) + "\n" for fx in fixes]
         if rows:
-            self.file.submit(rows.encode("ascii"))
-        return len(rows)
+            self.file.submit("".join(rows).encode("ascii"))
+        return rows
 
     def health(self) -> tuple[str | None, dict[str, int]]:
         st = self.file.stats()

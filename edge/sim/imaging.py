@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from edge.schema import setting
+from edge.config.schema import setting
 
 
 @dataclass(frozen=True)

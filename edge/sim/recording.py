@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 import yaml
 
-from edge.calibration import Calibration, calibration_to_dict, site_to_dict
+from edge.config.calibration import Calibration, calibration_to_dict, site_to_dict
 from edge.core.site import Site
 
 FORMAT_VERSION = 1

@@ -3,7 +3,7 @@
 A scenario names a calibration (a path relative to the scenario file, or the
 mapping inline), the site when the calibration has none, the frame rate and
 duration, the weather, the sensor, trigger faults, glints and the ships with
-their tracks. The dataclasses below are the schema; `edge.schema` turns every
+their tracks. The dataclasses below are the schema; `edge.config.schema` turns every
 mistake into a `ConfigError` naming the file and key (exit 78 from the CLI).
 
 `load_scenario("akashi-crossing")` finds config/scenarios/akashi-crossing.yaml;
@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from edge.calibration import Calibration, calibration_ref, optional_site
+from edge.config.calibration import Calibration, calibration_ref, optional_site
+from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.core.site import Site
 from edge.errors import ConfigError
-from edge.schema import load_dataclass, load_yaml, setting
 from edge.sim.imaging import ImagingSpec
 from edge.sim.scene import Atmosphere, Sea, Sky, Sun
 from edge.sim.ships import KINDS, ShipModel

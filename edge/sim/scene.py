@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from edge.schema import setting
+from edge.config.schema import setting
 
 EARTH_RADIUS_M = 6_371_000.0  # mean radius
 STANDARD_REFRACTION_K = 0.13  # optical coefficient of refraction (surveying standard)

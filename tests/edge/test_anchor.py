@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.stats import linregress
 
-from edge.anchor import (
+from edge.measure.anchor import (
     SHIP_WINDOW_MARGIN_PX,
     line_fit,
     median,

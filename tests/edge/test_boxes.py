@@ -1,4 +1,4 @@
-"""edge.boxes: the association's box overlaps and containment, against known answers and against a
+"""edge.measure.boxes: the association's box overlaps and containment, against known answers and against a
 pair-by-pair reference written from the definition."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.boxes import contains, inside, overlaps
+from edge.measure.boxes import contains, inside, overlaps
 
 
 def _one(a: list[float], b: list[float]) -> float:

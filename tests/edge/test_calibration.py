@@ -1,4 +1,4 @@
-"""edge.calibration: the DESIGN.md calibration file <-> Calibration, and every way it can be wrong.
+"""edge.config.calibration: the DESIGN.md calibration file <-> Calibration, and every way it can be wrong.
 
 Round trips (dict -> Calibration -> dict, and through a YAML file) must be
 exact; each bad calibration must raise a ConfigError naming the key, and the
@@ -18,7 +18,7 @@ from helpers import run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.calibration import Calibration, calibration_from_dict, calibration_to_dict, load_calibration
+from edge.config.calibration import Calibration, calibration_from_dict, calibration_to_dict, load_calibration
 from edge.core.camera import PinholeCamera, Poly10Camera, StereoRig
 from edge.core.site import Site
 from edge.errors import EX_CONFIG, ConfigError

@@ -1,4 +1,4 @@
-"""edge.schema (the generic YAML -> dataclass loader) and edge.config (the appliance's AppConfig).
+"""edge.config.schema (the generic YAML -> dataclass loader) and edge.config.app (the appliance's AppConfig).
 
 The loader is checked on each type and constraint with the exact key path in
 the error; the real CLI (`mast-stereo check-config`, run as a subprocess) is
@@ -18,10 +18,10 @@ from helpers import run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.config import AppConfig, NmeaPort, ReplayCameras, V4l2Cameras, VirtualCameras, load_config
+from edge.config.app import AppConfig, NmeaPort, ReplayCameras, V4l2Cameras, VirtualCameras, load_config
+from edge.config.schema import describe, load_dataclass, load_yaml, setting
+from edge.config.table import markdown_table, schema_rows
 from edge.errors import EX_CONFIG, ConfigError
-from edge.schema import describe, load_dataclass, load_yaml, setting
-from edge.schema_table import markdown_table, schema_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 

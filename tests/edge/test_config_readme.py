@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from edge.config import schema_markdown
+from edge.config.app import schema_markdown
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from drivers.camera.replay import ReplaySource
+from edge.config.calibration import recording_calibration
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.geo import horizon_dip_rad, sea_range_m
 from edge.core.rectify import Rectifier
-from edge.detect import Detector, sea_range_at
-from edge.replay import recording_calibration
+from edge.measure.detect import Detector, sea_range_at
 from edge.sim.recording import read_truth
 
 

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
-from edge.detect import HORIZON_BANDS, Detector
+from edge.measure.detect import HORIZON_BANDS, Detector
 
 WIDTH, HEIGHT, F_PX, SITE_M = 720, 480, 900.0, 25.0
 # A lens-blurred step, decimated by 2 and located by a three-point parabola on its Sobel gradient:

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
-from edge.detect import Detector, _row_median
+from edge.measure.detect import Detector, _row_median
 
 WIDTH, HEIGHT, F_PX = 720, 480, 900.0
 

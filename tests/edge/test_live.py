@@ -137,7 +137,7 @@ def test_capture_queue_keeps_the_newest_pair_and_counts_drops() -> None:
     import numpy as np
 
     from drivers.camera.base import FramePair
-    from edge.live import _Latest
+    from edge.daemon import _Latest
 
     q = _Latest()
     img = np.zeros((4, 4), np.uint8)

@@ -1,4 +1,4 @@
-"""edge.nmea: known answers from research/nmea-modbus.md, framing rules, and two independent parsers.
+"""edge.encode.nmea: known answers from research/nmea-modbus.md, framing rules, and two independent parsers.
 
 The property test is the acceptance test of OUTPUTS.md: for any fix within
 10 km of any site away from the poles, every sentence parses with pynmea2

@@ -11,10 +11,10 @@ import pytest
 
 from drivers.camera.base import FramePair
 from drivers.camera.replay import ReplaySource
-from edge.config import PipelineConfig
+from edge.config.app import PipelineConfig
+from edge.config.calibration import recording_calibration
 from edge.fix import TrackStatus
 from edge.pipeline import Pipeline
-from edge.replay import recording_calibration
 from edge.sim.recording import read_truth
 
 FRAMES = 30

@@ -8,8 +8,10 @@ from helpers import band_texture, shifted_u8
 
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
-from edge.pointbatch import step_points
-from edge.trackpoint import Designs, PointSettings, TrackPoint
+from edge.measure.batch import step_points
+from edge.measure.point import TrackPoint
+from edge.measure.ranging import Designs
+from edge.measure.settings import PointSettings
 
 W, H = 320, 160
 STATE = ("u", "v", "disparity", "rate_pxps", "sigma_px", "raw_disparity", "searching", "followed",

@@ -12,16 +12,16 @@ from helpers import run_cli
 
 from drivers.camera.base import FramePair
 from drivers.camera.replay import ReplaySource
-from edge.config import PipelineConfig, load_config
+from edge.config.app import PipelineConfig, load_config
+from edge.config.calibration import recording_calibration
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.prefilter import xsobel
 from edge.core.rectify import Rectifier
 from edge.errors import EX_CONFIG, ConfigError
 from edge.fix import TrackStatus
+from edge.measure.batch import match_settings, stereo_request
+from edge.measure.settings import PointSettings
 from edge.pipeline import Pipeline
-from edge.pointbatch import match_settings, stereo_request
-from edge.replay import recording_calibration
-from edge.trackpoint import PointSettings
 
 FRAMES = 30
 

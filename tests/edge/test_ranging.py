@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.ranging import (
+from edge.measure.ranging import (
     ACCEL_RUNGS,
     MAX_SHIP_ACCEL_MPS2,
     MAX_SHIP_SPEED_MPS,
@@ -17,7 +17,7 @@ from edge.ranging import (
     accel_rung,
     disparity_accel_bound,
 )
-from edge.trackpoint import PointSettings
+from edge.measure.settings import PointSettings
 
 FB = 2600.0 * 8.14  # the 2048 px rig's f L_B, px m
 

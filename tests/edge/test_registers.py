@@ -12,9 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthSnapshot, HealthState, Status
-from edge.registers import (
+from edge.encode.registers import (
     BY_NAME,
     FIELDS,
     PROBE_VALUE,
@@ -30,6 +28,8 @@ from edge.registers import (
     read_field,
     render_markdown_table,
 )
+from edge.fix import ShipFix, TrackStatus
+from edge.health import HealthSnapshot, HealthState, Status
 
 ROOT = Path(__file__).resolve().parents[2]
 T0_NS = 1_790_000_000_123_456_789

@@ -11,8 +11,9 @@ import cv2
 import pynmea2
 import pytest
 
+from edge.encode.tracks_csv import CSV_HEADER
 from edge.errors import ConfigError
-from edge.replay import CSV_HEADER, replay
+from edge.replay import replay
 
 FRAMES = 30
 

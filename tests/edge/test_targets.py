@@ -1,4 +1,4 @@
-"""edge.targets: target numbers are unique among live tracks and never reused within the quarantine."""
+"""edge.encode.targets: target numbers are unique among live tracks and never reused within the quarantine."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.targets import TargetNumbers
+from edge.encode.targets import TargetNumbers
 
 
 def test_numbers_start_at_one_and_stay_with_their_track() -> None:

@@ -13,14 +13,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from drivers.camera.replay import ReplaySource
+from edge.config.calibration import recording_calibration
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
+from edge.measure.point import TrackPoint
+from edge.measure.ranging import Designs
+from edge.measure.settings import PointSettings
+from edge.measure.tracks import CLIPPED_DN, WINDOW_VOTES, TableSettings, Track, TrackTable
 from edge.pipeline import Pipeline
-from edge.replay import recording_calibration
 from edge.sim.recording import read_truth
-from edge.tracking import CLIPPED_DN, WINDOW_VOTES, TableSettings, Track, TrackTable
-from edge.trackpoint import Designs, PointSettings, TrackPoint
 
 W, H, F, B, HEIGHT = 400, 300, 900.0, 8.0, 25.0
 
@@ -203,7 +205,7 @@ def _small_ship_pair(box: tuple[int, int, int, int], disparity: float) -> tuple[
 
 
 def test_a_ship_shrunk_into_the_spanning_window_takes_it_after_some_passes_and_keeps_its_filter() -> None:
-    """A track on the configured window whose ship is narrow enough for edge.anchor.ship_window's
+    """A track on the configured window whose ship is narrow enough for edge.measure.anchor.ship_window's
     spanning window takes it once WINDOW_VOTES detection passes in a row call for it, at the same
     point and with the same filter, and goes on measuring the ship's disparity; a track already on
     its own window keeps it when the ship grows past two windows."""

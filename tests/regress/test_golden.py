@@ -54,4 +54,4 @@ def test_replay_matches_golden(case: str, recording: Callable[..., Path]) -> Non
             continue
         assert path.exists(), f"{path} missing: run MAST_UPDATE_GOLDEN=1 tools/test tests/regress"
         expected = path.read_bytes().decode()
-        assert got == expected, f"{path.name} differs from the golden file, {_first_difference(expected, got)}"
+        assert got == expected, f"{path.name} differs from its golden: {_first_difference(expected, got)}"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from helpers import load_tool
 
-from edge.calibration import calibration_from_dict
+from edge.config.calibration import calibration_from_dict
 from edge.sim.ships import ShipModel
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from helpers import load_tool
 
-from edge.tracking import TrackTable
+from edge.measure.tracks import TrackTable
 
 
 def _evaluate():

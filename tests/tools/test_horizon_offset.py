@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from helpers import load_tool
 
-from edge.detect import HORIZON_BANDS
+from edge.measure.detect import HORIZON_BANDS
 
 FRAMES = 30  # 6 detection passes
 ERROR_DEG = 0.05

@@ -16,7 +16,7 @@ import pytest
 import yaml
 from helpers import run_cli
 
-from edge.calibration import load_calibration
+from edge.config.calibration import load_calibration
 from edge.core.geodesy import world_to_geodetic
 from edge.errors import EX_CONFIG
 

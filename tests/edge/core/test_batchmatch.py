@@ -11,7 +11,7 @@ from edge.core.batchmatch import _share_curves, batch_costs, match_points, track
 from edge.core.costs import cost_curve_reference
 from edge.core.match import SUBPIXEL_METHODS, match_point, search_range
 from edge.core.refpoint import track_point
-from edge.core.synth import make_scene, render_view, sensor
+from edge.sim.synth import make_scene, render_view, sensor
 
 ROWS, COLS = 44, 90
 

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from edge.core.batchsubpix import gauss6_q8_batch, ncc_terms_batch, parabola3_q8, vertex_fits_q
 from edge.core.match import NO_BRACKET, CostArithmetic, _gauss6, refine
 from edge.core.subpixel import _ncc_terms, gauss_fit_q
-from edge.core.synth import make_scene, render_view, sensor
+from edge.sim.synth import make_scene, render_view, sensor
 
 COLS = 80
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from edge.core import Match, match_point, match_point_float
 from edge.core.costs import cost_curve, cost_curve_float, cost_curve_reference
-from edge.core.synth import Condition, make_scene, render_pair, sweep
+from edge.sim.synth import Condition, make_scene, render_pair, sweep
 
 SEEDS = range(9100, 9116)          # evaluation-style seeds for unit tests (bench uses its own)
 

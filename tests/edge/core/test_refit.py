@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from edge.core import refit as rf
 from edge.core.match import match_point
-from edge.core.synth import Condition, make_scene, render_pair, sweep
+from edge.sim.synth import Condition, make_scene, render_pair, sweep
 
 SEEDS = range(9200, 9216)          # unit-test seeds (bench-core uses 1000+ and 5000+)
 H = 7

@@ -14,7 +14,7 @@ from edge.core import subpixel as sp
 from edge.core.costs import cost_curve_reference
 from edge.core.fixedpoint import FIT_ONE, LOG_BITS, SUBPIX_ONE, log2_q, round_shift
 from edge.core.match import match_point
-from edge.core.synth import Condition, sweep
+from edge.sim.synth import Condition, sweep
 
 
 @given(st.integers(1, 1 << 20), st.integers(-512, 512), st.integers(0, 1 << 30))

@@ -9,11 +9,11 @@ import pynmea2
 
 from drivers.modbus import ModbusServer, VirtualModbusServer
 from drivers.serial_port import VirtualSerialPort
+from edge.encode.registers import Identity, read_field
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthMonitor, HealthState, Status, standard_stages
 from edge.outputs.fanout import OUTPUT_STAGES, Outputs, firmware_version
-from edge.outputs.nmea_out import NmeaSerialOutput
-from edge.registers import Identity, read_field
+from edge.outputs.nmea_serial import NmeaSerialOutput
 
 T_NS = 1_790_000_000_000_000_000
 
@@ -114,7 +114,7 @@ def test_modbus_that_cannot_start_is_a_retried_fault_not_a_crash() -> None:
 
 
 def test_health_stages_follow_the_configured_outputs() -> None:
-    from edge.config import ModbusConfig, ModbusTcp, NmeaPort, OutputsConfig
+    from edge.config.app import ModbusConfig, ModbusTcp, NmeaPort, OutputsConfig
     from edge.outputs.fanout import output_stages
 
     none = OutputsConfig(modbus=ModbusConfig(tcp=ModbusTcp(enabled=False)))
@@ -127,8 +127,8 @@ def test_health_stages_follow_the_configured_outputs() -> None:
 def test_tracks_csv_gets_every_fix_and_survives_a_missing_directory(tmp_path) -> None:
     import csv
 
+    from edge.encode.tracks_csv import CSV_HEADER
     from edge.outputs.tracks_csv import TracksCsvOutput
-    from edge.replay import CSV_HEADER
 
     clock = Clock()
     health = HealthMonitor(standard_stages([("tracks_csv", Status(0))]), clock=clock)

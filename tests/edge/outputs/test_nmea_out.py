@@ -1,4 +1,4 @@
-"""edge.outputs.nmea_out: budget, fairness, L priority and quarantine; then through a real pty (socat).
+"""edge.outputs.nmea_serial: budget, fairness, L priority and quarantine; then through a real pty (socat).
 
 Scheduler properties are checked with a hand-stepped clock; the serial tests
 run a separate reader process on the far end of a socat pty pair and check
@@ -21,9 +21,9 @@ import pynmea2
 import pytest
 
 from drivers.serial_port import VirtualSerialPort
+from edge.encode.nmea import MAX_SENTENCE_CHARS
 from edge.fix import ShipFix, TrackStatus
-from edge.nmea import MAX_SENTENCE_CHARS
-from edge.outputs.nmea_out import (
+from edge.outputs.nmea_serial import (
     BURST_S,
     NmeaSchedule,
     NmeaScheduler,
@@ -202,7 +202,7 @@ def test_a_track_that_returns_keeps_its_number_and_a_refused_fix_is_counted() ->
 
 
 def test_schedule_from_the_appliance_configuration() -> None:
-    config = pytest.importorskip("edge.config")
+    config = pytest.importorskip("edge.config.app")
     proprietary = config.ProprietaryConfig(enabled=True, manufacturer="ABC")
     port = config.NmeaPort(url="loop://", talker="II", sentences=("TLL",), proprietary=proprietary)
     assert schedule_from_config(port) == NmeaSchedule(

@@ -1,7 +1,7 @@
 """edge.outputs.nmea_udp: IEC 61162-450 datagrams received by a real multicast socket and decoded here.
 
 The tag block is checked with an XOR written in this test, not with
-edge.nmea, and the sentence inside with pynmea2.
+edge.encode.nmea, and the sentence inside with pynmea2.
 """
 
 from __future__ import annotations
@@ -17,9 +17,9 @@ import pynmea2
 import pytest
 
 from drivers.udp import VirtualUdpSender
+from edge.encode.nmea import tll, ttm
 from edge.fix import ShipFix, TrackStatus
-from edge.nmea import tll, ttm
-from edge.outputs.nmea_out import NmeaSchedule
+from edge.outputs.nmea_serial import NmeaSchedule
 from edge.outputs.nmea_udp import NmeaUdpOutput
 
 GROUP = "239.192.0.2"
@@ -81,7 +81,7 @@ def test_line_counter_wraps_from_999_to_1_and_every_track_is_refreshed_once_per_
 
 
 def test_from_config_and_bad_source() -> None:
-    config = pytest.importorskip("edge.config")
+    config = pytest.importorskip("edge.config.app")
     out = NmeaUdpOutput.from_config(
         config.UdpConfig(source="II0007", sentences=("TLL",)), sender=VirtualUdpSender()
     )

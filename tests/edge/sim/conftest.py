@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from edge.schema import load_yaml
+from edge.config.schema import load_yaml
 
 ROOT = Path(__file__).resolve().parents[3]
 SITE = {"lat_deg": 34.63, "lon_deg": 135.02, "height_m": 25.0, "heading_deg": 180.0}

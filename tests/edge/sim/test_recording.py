@@ -16,8 +16,8 @@ import pytest
 import yaml
 
 from drivers.camera.replay import ReplaySource
-from edge.calibration import calibration_from_dict
 from edge.cli import main
+from edge.config.calibration import calibration_from_dict
 from edge.errors import EX_CONFIG
 from edge.sim.batch import write_recording
 from edge.sim.recording import RecordingWriter, build_meta, read_truth

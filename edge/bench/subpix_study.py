@@ -37,7 +37,7 @@ import numpy as np
 
 from edge.core.match import Match, match_point
 from edge.core.refit import refit_float
-from edge.core.synth import Condition, sweep_many
+from edge.sim.synth import Condition, sweep_many
 
 TUNE_SEED0 = 5000
 EVAL_SEED0 = 1000                        # bench-core's evaluation seeds (only with --study-seeds)
@@ -273,7 +273,7 @@ CONDITIONS = [Condition("textured, 1 DN"), Condition("textured, 0 DN (bias)", no
 
 
 def section_study(args: argparse.Namespace, out: list[str]) -> None:
-    from _bench_common import table
+    from edge.bench.common import table
     n_seeds, n_frac = (6, 8) if args.quick else (12, 16)
     seed0 = TUNE_SEED0
     if getattr(args, "study_seeds", "tuning") == "evaluation":       # a check, never for choosing

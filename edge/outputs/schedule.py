@@ -15,7 +15,7 @@ target) to send now. Rules (OUTPUTS.md):
 - Priority: a dropped track (status L, or absent from the step's fixes) gets
   its last fix re-sent with status L `lost_repeats` times `lost_interval_s`
   apart, before any live update. After the last one its number goes into
-  quarantine (`edge.targets`), so the number stays off the wire >= 60 s.
+  quarantine (`edge.encode.targets`), so the number stays off the wire >= 60 s.
 - A track enters NMEA once it is T (Q too only if `send_acquiring`); target
   numbers come from `TargetNumbers`. With all numbers busy a new track waits
   (counted, logged once) and is served in track-id order when one frees.
@@ -23,9 +23,9 @@ target) to send now. Rules (OUTPUTS.md):
   refused and counted, never sent half-right.
 
 The clock (monotonic seconds) is injectable; the scheduler itself does no
-I/O, so its results are deterministic for a given clock. `NmeaSerialOutput`
-joins it to a serial port (`drivers.serial_port`); the IEC 61162-450 UDP
-output is in `edge.outputs.nmea_udp`.
+I/O, so its results are deterministic for a given clock. `edge.outputs.nmea_serial`
+joins it to a serial port; the IEC 61162-450 UDP output is `edge.outputs.nmea_udp`, and
+`replay` clocks it with the pairs' own timestamps on an unlimited line.
 """
 
 from __future__ import annotations
@@ -36,15 +36,21 @@ import math
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from drivers.serial_port import PySerialPort, SerialPortBase
+from edge.encode.nmea import (
+    KINDS,
+    MAX_SENTENCE_CHARS,
+    NmeaError,
+    check_manufacturer,
+    check_talker,
+    track_sentences,
+)
+from edge.encode.targets import TargetNumbers
 from edge.fix import ShipFix, TrackStatus
-from edge.nmea import KINDS, MAX_SENTENCE_CHARS, NmeaError, check_manufacturer, check_talker, track_sentences
-from edge.targets import TargetNumbers
 
 if TYPE_CHECKING:
-    from edge.config import NmeaPort, UdpConfig
+    from edge.config.app import NmeaPort, UdpConfig
 
 log = logging.getLogger(__name__)
 
@@ -228,85 +234,6 @@ class NmeaScheduler:
             return
         last = fix if fix is not None else dataclasses.replace(track.fix, status=TrackStatus.LOST)
         self._lost[track_id] = _Lost(last, number, self.schedule.lost_repeats, now_s)
-
-
-def serial_bytes_per_s(baud: int, bytesize: int = 8, parity: str = "N", stopbits: float = 1) -> float:
-    """Characters per second of an asynchronous serial line: baud / (start + data + parity + stop bits)."""
-    bits = 1 + bytesize + (0 if parity == "N" else 1) + stopbits
-    return baud / bits
-
-
-class NmeaSerialOutput:
-    """Scheduler + serial port. `publish()` is the processing thread's only call; it never blocks.
-
-    The byte budget is ``utilisation`` times the line's character rate (baud
-    over start + data + parity + stop bits). Each track update (TTM+TLL...) is
-    one queue entry, so a full queue drops whole updates, oldest first. Pass
-    `port` to use a `VirtualSerialPort`; by default a `PySerialPort` is built
-    from `url` and the framing.
-    """
-
-    def __init__(
-        self,
-        url: str,
-        schedule: NmeaSchedule = DEFAULT_SCHEDULE,
-        *,
-        baud: int = 38400,
-        bytesize: int = 8,
-        parity: str = "N",
-        stopbits: float = 1,
-        xonxoff: bool = False,
-        rtscts: bool = False,
-        utilisation: float = 0.9,
-        queue_max: int = 32,
-        write_timeout_s: float = 1.0,
-        port: SerialPortBase | None = None,
-        clock: Callable[[], float] = time.monotonic,
-    ) -> None:
-        if not 0 < utilisation <= 1:
-            raise ValueError(f"utilisation must be in (0, 1], got {utilisation}")
-        self.bytes_per_s = utilisation * serial_bytes_per_s(baud, bytesize, parity, stopbits)
-        self.scheduler = NmeaScheduler(schedule, self.bytes_per_s, clock)
-        self.port = port if port is not None else PySerialPort(
-            url, baudrate=baud, bytesize=bytesize, parity=parity, stopbits=stopbits, xonxoff=xonxoff,
-            rtscts=rtscts, write_timeout_s=write_timeout_s, queue_max=queue_max,
-        )  # fmt: skip
-
-    @classmethod
-    def from_config(cls, cfg: NmeaPort, **kwargs: Any) -> NmeaSerialOutput:
-        """Build from one `outputs.nmea[i]` entry of the appliance configuration."""
-        return cls(cfg.url, schedule_from_config(cfg), baud=cfg.baud, bytesize=cfg.bytesize,
-                   parity=cfg.parity, stopbits=cfg.stopbits, **kwargs)
-
-    def start(self) -> NmeaSerialOutput:
-        self.port.start()
-        return self
-
-    def publish(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
-        """Schedule this step's fixes and queue what fits the budget; returns the queued groups."""
-        groups = self.scheduler.step(fixes)
-        for group in groups:
-            self.port.submit("".join(group).encode("ascii"))
-        return groups
-
-    def close(self) -> None:
-        self.port.close()
-
-    def health(self) -> tuple[str | None, dict[str, int]]:
-        """(fault text or None, counters) for `HealthMonitor.beat(..., fault=, counters=)`."""
-        port, sched = self.port.stats(), self.scheduler.stats()
-        fault = (
-            "serial port lost" if port.fault
-            else "serial port stalled" if port.stalled
-            else "serial port not open" if not port.connected
-            else None
-        )  # fmt: skip
-        counters = {
-            "nmea_groups": sched.groups_sent, "nmea_refused": sched.refused, "nmea_waiting": sched.waiting,
-            "serial_bytes": port.written_bytes, "serial_dropped": port.dropped,
-            "serial_timeouts": port.write_timeouts, "serial_errors": port.errors,
-        }  # fmt: skip
-        return fault, counters
 
 
 def schedule_from_config(cfg: NmeaPort | UdpConfig) -> NmeaSchedule:

@@ -25,15 +25,14 @@ from pathlib import Path
 from drivers.camera.base import FramePair, FramePairSource
 from drivers.camera.replay import ReplaySource
 from drivers.notify import Notifier
-from edge.calibration import Calibration
-from edge.config import AppConfig, ReplayCameras, VirtualCameras
+from edge.config.app import AppConfig, ReplayCameras, VirtualCameras
+from edge.config.calibration import Calibration, recording_calibration
 from edge.errors import ConfigError
 from edge.fix import ShipFix
 from edge.health import HealthMonitor, HealthState, standard_stages
 from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Pipeline
-from edge.replay import recording_calibration
 from edge.sim.scenario import load_scenario
 from edge.sim.simulator import live_source
 
@@ -140,7 +139,8 @@ class Appliance:
         site = plan.calibration.site
         outputs = Outputs.from_config(config.outputs, health, max_tracks=config.pipeline.max_tracks,
                                       site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg)
-        outputs.nmea.extend(extra_nmea)
+        for stream in extra_nmea:
+            outputs.add(stream)
         return cls(plan, pipeline, outputs, health, notifier, on_fixes)
 
     # ------------------------------------------------------------------ threads

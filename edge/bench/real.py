@@ -133,7 +133,7 @@ def _xgrad(image: np.ndarray) -> np.ndarray:
 
 
 def section_real(args: argparse.Namespace, out: list[str]) -> None:
-    from _bench_common import table
+    from edge.bench.common import table
     pair = load_motorcycle()
     if pair is None:
         out.append("Real imagery: skipped (scikit-image not installed: .venv/bin/pip install scikit-image)\n")

@@ -22,7 +22,6 @@ import math
 from collections import defaultdict
 from collections.abc import Generator, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -31,15 +30,13 @@ from edge.core.match import Match, match_point
 from edge.core.prefilter import NOISE_GAIN
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack, track_point
-
-if TYPE_CHECKING:
-    from edge.trackpoint import PointSettings
+from edge.measure.settings import PointSettings
 
 # fewer requests of a kind and settings are answered one by one (same results): the batched follow
 # is cheaper than `track_point` even for one point (its parabola curves come off the cost square),
 # the batched match only from about three points on (its fixed cost: the batched products and the
 # vectorised Gaussian fits cost more than one point's own). Tracks with a window of their own
-# (edge.anchor.ship_window) form small groups: tools/bench's 8-ship scene has groups of 1, 3 and 4
+# (edge.measure.anchor.ship_window) form small groups: tools/bench's 8-ship scene has groups of 1, 3 and 4
 BATCH_MIN = {"Follow": 1, "StereoMatch": 3}
 
 

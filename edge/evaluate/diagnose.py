@@ -16,7 +16,7 @@ background) and what the filter does with it, d_filtered - d_point (c: smoothing
 per fix: the share of the 15x15 window's rays that hit the same ship (a window mostly on sea or
 sky measures their disparity) and the part of the ship hit (hull, decks, bridge ...).
 
-Outline split (a small ship the window spans, the far-ship case of edge.anchor.ship_window): in
+Outline split (a small ship the window spans, the far-ship case of edge.measure.anchor.ship_window): in
 the point's row, the ship's left and right outlines (its leftmost and rightmost columns within a
 window of the point, from the same ray cast) are matched alone with an OUTLINE_WINDOW window and
 the product's matcher settings; the table gives their mean disparity minus the bridge's true
@@ -42,10 +42,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from edge.config.schema import load_yaml
 from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
-from edge.pointbatch import match_settings, stereo_request
-from edge.schema import load_yaml
+from edge.measure.batch import match_settings, stereo_request
 from edge.sim.rays import CameraRays, cast
 from edge.sim.scenario import scenario_from_dict, scenario_path
 from edge.sim.simulator import Simulation

@@ -10,7 +10,7 @@ cameras:
 site: {lat_deg: .., lon_deg: .., height_m: .., heading_deg: ..}     # optional
 ```
 
-Besides types and unknown keys (edge.schema), a calibration is checked for
+Besides types and unknown keys (edge.config.schema), a calibration is checked for
 what would silently give wrong positions: a positive baseline and focal
 lengths (fx, fy; a0, a5 for poly10), a principal point inside the image, and
 a lens model that can be inverted over the whole image (a distortion that
@@ -26,10 +26,10 @@ from typing import Any, Literal
 
 import numpy as np
 
+from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.core.camera import CameraModel, PinholeCamera, Poly10Camera, StereoRig
 from edge.core.site import Site
 from edge.errors import ConfigError
-from edge.schema import load_dataclass, load_yaml, setting
 
 ROUND_TRIP_TOL_PX = 1e-6  # pixel -> ray -> pixel over a grid of the image
 
@@ -222,3 +222,14 @@ def _plain(mapping: dict[str, Any]) -> dict[str, Any]:
         k: [float(x) for x in v] if isinstance(v, list | tuple) else v if isinstance(v, str) else float(v)
         for k, v in mapping.items()
     }
+
+
+def recording_calibration(root: str | Path, meta: dict) -> Calibration:
+    """The calibration (with its site) stored in a recording's meta.yaml."""
+    meta_file = Path(root) / "meta.yaml"
+    if "calibration" not in meta:
+        raise ConfigError(meta_file, "calibration", "the recording's calibration mapping")
+    cal = calibration_from_dict(meta["calibration"], meta_file, "calibration")
+    if meta.get("site") is not None:
+        cal = Calibration(cal.rig, site_from_dict(meta["site"], meta_file, "site"))
+    return cal

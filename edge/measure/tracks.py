@@ -1,10 +1,10 @@
 """TrackTable: ship tracks from detections and per-pair measurements, with the Q/T/L lifecycle.
 
 Every pair, each live track follows its reference point and measures its
-disparity (`edge.trackpoint`). On detection pairs (every k-th), detections
+disparity (`edge.measure.point`). On detection pairs (every k-th), detections
 are associated to tracks by the Hungarian method
 (`scipy.optimize.linear_sum_assignment`) on 1 - overlap of the detection's
-box and the track's box carried along with its point (`edge.boxes.overlaps`: the IoU of
+box and the track's box carried along with its point (`edge.measure.boxes.overlaps`: the IoU of
 their column spans, for boxes in the same rows), gated at a minimum overlap
 (or the point inside the box). Then:
 
@@ -40,16 +40,20 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from edge.anchor import median, reference_points, ship_window, spanning_width
-from edge.boxes import contains, inside, overlaps
 from edge.core.geo import height_above_sea_m
+from edge.core.linefit import median
 from edge.core.rectify import Rectifier
-from edge.detect import sea_range_at
+from edge.core.triangulation import triangulate_normalised
 from edge.fix import TrackStatus
-from edge.pointbatch import answer_all, step_points, stereo_request
-from edge.trackpoint import Designs, PointSettings, TrackPoint
+from edge.measure.anchor import reference_points, ship_window, spanning_width
+from edge.measure.batch import answer_all, step_points, stereo_request
+from edge.measure.boxes import contains, inside, overlaps
+from edge.measure.detect import sea_range_at
+from edge.measure.point import TrackPoint
+from edge.measure.ranging import Designs
+from edge.measure.settings import PointSettings
 
-MIN_OVERLAP = 0.2  # association gate (`edge.boxes.overlaps`), or the track's point inside the detection's box
+MIN_OVERLAP = 0.2  # association gate (`boxes.overlaps`), or the track's point inside the detection's box
 BIRTH_SLOPE_SHARE = 0.6  # a candidate whose disparity grows this fast down its rows is sea: no birth
 VERTICAL_SHARE = 0.25  # a ship's disparity changes by less than this share of the sea's per row
 SLOPE_ROWS = 4  # rows above and below the point for that test
@@ -123,7 +127,7 @@ class TrackTable:
         [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
         if boxes:
             self._box_steps(boxes, skipped)
-        # every track's follow and match of this pair batched (edge.pointbatch; = point.step per track)
+        # every track's follow and match of this pair batched (edge.measure.batch; = point.step per track)
         steps = [t.point.steps(left, right, self.rect, skipped,
                                lambda t=t: self._candidates(left, t.box, window=t.point.s.window))
                  for t in self.tracks]
@@ -246,7 +250,7 @@ class TrackTable:
                 p.set_window(window, self.rect)
 
     def _ship_window(self, left: np.ndarray, box: np.ndarray) -> int:
-        """edge.anchor.ship_window for a ship in `box` (rectified) in this left image."""
+        """edge.measure.anchor.ship_window for a ship in `box` (rectified) in this left image."""
         m = self.ps.window
         if spanning_width(box[2] - box[0], m) == m:
             return m  # no spanning window for a ship this wide: no patch needed
@@ -277,7 +281,7 @@ class TrackTable:
     def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES,
                     window: int | None = None) -> list:
         """The best-textured points in the upper part of a (rectified) ship box, best first, for
-        `window` (default the configured one; a track's own, edge.anchor.ship_window).
+        `window` (default the configured one; a track's own, edge.measure.anchor.ship_window).
 
         Two kinds of window are avoided: (1) one across the bow or stern outline holds the sea
         behind the ship, at another range, and its disparity is a mix of the two (a ship wider
@@ -345,7 +349,7 @@ class TrackTable:
 
     def _slopes(self, points: list[TrackPoint], left: np.ndarray, right: np.ndarray) -> list[float | None]:
         """Disparity change per row across each point: its matches SLOPE_ROWS above and below it, all
-        points' answered together (edge.pointbatch.answer_all; None: a match failed)."""
+        points' answered together (edge.measure.batch.answer_all; None: a match failed)."""
         requests = [stereo_request(p.s, left, right, self.rect, p.u, p.v + dv, p.predicted_disparity(),
                                    p.match_settings) for p in points for dv in (-SLOPE_ROWS, SLOPE_ROWS)]
         answers = answer_all(requests)
@@ -364,10 +368,10 @@ class TrackTable:
         triangulated point (eq. 4.1) against the curved sea below it; its 1-sigma is the range
         error's share plus ROW_SIGMA_PX of the row."""
         f, b = self.rect.f_px, self.rect.rig.baseline_m
-        x, y = self.rect.rect_to_normalised(np.array([p.u, p.v]))
-        z = f * b / p.disparity
-        point = np.array([z * (x - 0.5 * p.disparity / f), z * y, z])
+        xy_left = self.rect.rect_to_normalised(np.array([p.u, p.v]))
+        point = triangulate_normalised(xy_left, xy_left - np.array([p.disparity / f, 0.0]), b)  # eq. 4.1
         height = float(height_above_sea_m(point, self.site_height_m))
+        y, z = float(xy_left[1]), float(point[2])
         sigma_z = z * z * p.sigma_px / (f * b)
         return height, math.hypot(abs(y) * sigma_z, z * ROW_SIGMA_PX / f)
 

@@ -23,7 +23,7 @@ element-wise for sequences), ``choices``, ``pattern`` (full match, strings),
 value returning None or the expectation it failed) and ``load`` (a function
 ``(data, file, key) -> value`` that replaces the typed build for that field).
 ``doc`` and ``accepts`` (overrides the generated description) feed
-`edge.schema_table`, which renders a schema as the README's key table.
+`edge.config.table`, which renders a schema as the README's key table.
 
 Key paths look like ``outputs.nmea[0].baud``. `load_yaml` reads a file with
 a loader that also refuses duplicate keys (PyYAML would keep the last one).
@@ -209,7 +209,7 @@ def _build_typed(tp: Any, value: Any, file: Any, key: str, meta: Mapping[str, An
         return out
     if tp in (int, float, str, bool):
         return _scalar(tp, value, file, key, meta)
-    raise TypeError(f"schema type {tp!r} at {key!r} is not supported by edge.schema")
+    raise TypeError(f"schema type {tp!r} at {key!r} is not supported by edge.config.schema")
 
 
 def _build_union(members: tuple[Any, ...], value: Any, file: Any, key: str, meta: Mapping[str, Any]) -> Any:

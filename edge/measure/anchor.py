@@ -4,11 +4,7 @@
 gradient of the window (what sets the matcher's sigma, research note §1.4),
 best first and at least half a window apart. The upper part of the box is the
 superstructure, the thesis's bridge, mostly seen against the sky, so the window
-holds little sea at another range. `median` and `line_fit` work on the few
-values a track keeps, in plain Python (np.median and np.polyfit cost 20-40 us a
-call, more than the work itself); `slope_sigma` is the fitted slope's standard
-error, which says how far the image motion (and the lateral speed from it) can be
-trusted.
+holds little sea at another range.
 """
 
 from __future__ import annotations
@@ -89,37 +85,3 @@ def reference_points(patch: np.ndarray, box: tuple[int, int, int, int], origin: 
         h = window // 2
         sub[max(0, iy - h):iy + h + 1, max(0, ix - h):ix + h + 1] = -1.0
     return out
-
-
-def median(values) -> float:
-    """Median of a short sequence (sorted(); np.median's overhead is ~20 us on a handful of values)."""
-    v = sorted(values)
-    n = len(v)
-    return float(v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2]))
-
-
-def line_fit(points) -> tuple[float, float]:
-    """Least-squares line through (t, y) points: (y at the last t, slope per unit t)."""
-    t_last = points[-1][0]
-    n = len(points)
-    st = sum(p[0] - t_last for p in points)
-    sy = sum(p[1] for p in points)
-    stt = sum((p[0] - t_last) ** 2 for p in points)
-    sty = sum((p[0] - t_last) * p[1] for p in points)
-    den = n * stt - st * st
-    slope = (n * sty - st * sy) / den if den else 0.0
-    return (sy - slope * st) / n, slope
-
-
-def slope_sigma(points, intercept: float, slope: float, floor: float) -> float:
-    """Standard error of a fitted line's slope (per unit t): the residual scatter, at least `floor`,
-    over sqrt(sum (t - mean t)^2); infinite for fewer than three points."""
-    n = len(points)
-    if n < 3:
-        return math.inf
-    t_last = points[-1][0]
-    t_mean = sum(p[0] for p in points) / n
-    stt = sum((p[0] - t_mean) ** 2 for p in points)
-    ss = sum((p[1] - intercept - slope * (p[0] - t_last)) ** 2 for p in points)
-    scatter2 = max(ss / (n - 2), floor * floor)
-    return math.sqrt(scatter2 / stt) if stt > 0 else math.inf

@@ -1,13 +1,13 @@
 """Track-test section of tools/bench-core: Butterworth vs Kalman on scripted ship passes
-(edge.core.tracksim), with the sub-pixel bias curves measured by the sub-pixel section."""
+(edge.sim.tracksim), with the sub-pixel bias curves measured by the sub-pixel section."""
 
 from __future__ import annotations
 
 import argparse
 
 import numpy as np
-from _bench_common import table
 
+from edge.bench.common import table
 from edge.core import tracksim as ts
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalmanFloat, design_kalman

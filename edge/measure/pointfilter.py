@@ -1,9 +1,9 @@
-"""The disparity side of a track's point (`edge.trackpoint.TrackPoint` builds on it): the disparity
+"""The disparity side of a track's point (`edge.measure.point.TrackPoint` builds on it): the disparity
 filter, the noise and acceleration levels of its design, and the last estimate it carries forward.
 
 Why apart from the follow and match: this is the part that decides which measurements a track
 believes. The filter is the core's fixed-point CV Kalman with its 3-sigma gate (default; its white
-acceleration is what a ship at the track's disparity can do, `edge.ranging`), the thesis's
+acceleration is what a ship at the track's disparity can do, `edge.measure.ranging`), the thesis's
 Butterworth (eq. 6.1), or none (the raw whole-pixel / sub-pixel stages that tools/evaluate
 compares). The Kalman's measurement noise follows the track's own scatter (a ladder of designs),
 its prediction bounds where the point may resume after a search, and a restarting filter must
@@ -14,17 +14,14 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import TYPE_CHECKING
 
-from edge.anchor import median
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalman
+from edge.core.linefit import median
 from edge.core.match import Match
-from edge.ranging import MAX_SHIP_SPEED_MPS, Designs, accel_rung
-
-if TYPE_CHECKING:
-    from edge.trackpoint import PointSettings
-
+from edge.core.shipmotion import MAX_SHIP_SPEED_MPS, accel_rung
+from edge.measure.ranging import Designs
+from edge.measure.settings import PointSettings
 
 NOISE_LADDER_PX = (0.04, 0.08, 0.16, 0.32)  # disparity-noise levels of the Kalman designs
 MAX_USABLE_NOISE_PX = 0.4  # a point scattering more than this gives no usable range (stays Q / turns L)
@@ -137,7 +134,8 @@ class PointFilter:
         self._adapt_accel()
 
     def _adapt_accel(self) -> None:
-        """The white acceleration of the design: what a ship at this disparity can do (edge.ranging)."""
+        """The white acceleration of the design: what a ship at this disparity can do
+        (edge.core.shipmotion)."""
         if self.disparity is None or self.kalman is None:
             return
         rung = accel_rung(self.disparity, self.s.focal_px * self.s.baseline_m, self.s.sigma_accel_pxps2)

@@ -1,6 +1,6 @@
 """The appliance's configuration: one YAML file -> a frozen `AppConfig` (schema below).
 
-`load_config(path)` reads the file with `edge.schema` (types, ranges, unknown
+`load_config(path)` reads the file with `edge.config.schema` (types, ranges, unknown
 keys, duplicate keys: every mistake is a `ConfigError` naming the file and
 the key path, exit 78 from the CLI) and then checks what spans several keys.
 Relative paths (calibration file, replay recording, scenario file) are taken
@@ -12,7 +12,7 @@ serial port. `AppConfig()` is therefore a working configuration, and
 config/demo.yaml spells the same thing out. `markdown_table(AppConfig)`
 renders this schema for the README.
 
-`calibration` is a path to a calibration YAML (edge.calibration) or the same
+`calibration` is a path to a calibration YAML (edge.config.calibration) or the same
 mapping inline; when absent, virtual cameras take the scenario's calibration
 and replay the recording's. `site`, when given, overrides the calibration's.
 """
@@ -24,11 +24,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
-from edge.calibration import Calibration, calibration_ref, optional_site, resolve_path
+from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
+from edge.config.schema import load_dataclass, load_yaml, setting
+from edge.config.table import markdown_table
 from edge.core.site import Site
 from edge.errors import ConfigError
-from edge.schema import load_dataclass, load_yaml, setting
-from edge.schema_table import markdown_table
 
 BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)
 

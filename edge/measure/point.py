@@ -3,9 +3,9 @@
 Everything here works in rectified left-image pixels (`edge.core.rectify`):
 rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 
-- Reference point (`edge.anchor.reference_points`): the best-textured window in
+- Reference point (`edge.measure.anchor.reference_points`): the best-textured window in
   the upper part of the ship's box — the superstructure, the thesis's bridge; the window spans a
-  small far ship on a quiet background (`edge.anchor.ship_window`, chosen at birth, or later when
+  small far ship on a quiet background (`edge.measure.anchor.ship_window`, chosen at birth, or later when
   a ship shrinks into it: `TrackTable._resize_window`).
 - Left follow: the core's sub-pixel point tracker (`edge.core.track_point`,
   ZSSD 2-D search with cancellation-free parabola fits here for speed) finds a
@@ -22,7 +22,7 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
   to the disparity filter's prediction once it runs (a full search at birth and after a restart);
   sub-pixel by the six-pass Gaussian cancellation (tools/evaluate against "cancel": two-ships-crossing
   fixes beyond 3 sigma 22 -> 0, approach-2048 4-5 km IMO 62 -> 70 %, akashi envelope unchanged).
-- Filter: `edge.pointfilter.PointFilter` (the base of `TrackPoint`). The left point's column is
+- Filter: `edge.measure.pointfilter.PointFilter` (the base of `TrackPoint`). The left point's column is
   smoothed by a least-squares line over the last second of follows: its slope is the image motion
   that predicts the next position and gives the bearing rate.
 """
@@ -32,14 +32,15 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from edge.anchor import line_fit, median, slope_sigma
+from edge.core.linefit import line_fit, median, slope_sigma
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
-from edge.pointbatch import (
+from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2, MAX_SHIP_SPEED_MPS
+from edge.measure.batch import (
     Follow,
     Steps,
     follow_settings,
@@ -47,11 +48,10 @@ from edge.pointbatch import (
     run_one,
     stereo_request,
 )
-from edge.pointfilter import MAX_SHIP_SPEED_MPS, NOISE_WINDOW, PointFilter
-from edge.ranging import MAX_SHIP_ACCEL_MPS2, Designs
+from edge.measure.pointfilter import NOISE_WINDOW, PointFilter
+from edge.measure.ranging import Designs
+from edge.measure.settings import PointSettings
 
-SUBPIXELS = ("cancel6-gauss", "refit", "cancel", "parabola", "none")
-FILTERS = ("kalman", "butterworth", "none")
 COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
 REFIT_COLUMNS = 5  # follows in the column line before its slope is used for the speed
 COLUMN_NOISE_PX = 0.05  # the least scatter a follow's column is credited with (its slope's sigma)
@@ -67,32 +67,6 @@ FOLLOW_FAILURES_TO_SEARCH = 5  # pairs without a sure follow before the point is
 FOLLOW_GATE_PX = 1.5  # a follow this far from the predicted motion jumped to something else
 
 
-@dataclass(frozen=True)
-class PointSettings:
-    """Matching and filtering knobs of every track (built by the pipeline from its configuration)."""
-
-    fps: float = 10.0
-    window: int = 15
-    max_disparity: int = 128
-    cost: str = "zssd"
-    prefilter: str = "none"  # "xsobel": the right match compares clipped x-Sobel patches
-    subpixel: str = "cancel6-gauss"
-    filter: str = "kalman"
-    butterworth_cutoff_hz: float = 0.5
-    gate_sigma: float = 3.0
-    reacquire_s: float = 3.0
-    noise_dn: float = 2.0  # camera noise for the matcher's predicted sigma
-    max_sigma_px: float = 0.5  # matches predicted worse than this are rejected (too little texture)
-    sigma_meas_px: float = 0.08  # the Kalman's measurement noise until the track has measured its own
-    sigma_accel_pxps2: float = 0.05  # the Kalman's white acceleration (max d'' of a ship)
-    search_radius_px: int = 4  # disparity search around the prediction
-    follow_radius_px: int = 4  # left-follow search around the predicted position
-    follow_subpixel: str = "parabola"  # the core point tracker's sub-pixel method
-    follow_every: int = 1  # run the point tracker every n-th pair (the motion fit carries it between)
-    baseline_m: float = 0.0  # with focal_px: bounds the image motion and disparity rates (0: no bound)
-    focal_px: float = 0.0
-
-
 class TrackPoint(PointFilter):
     """The measured point of one track: position in the rectified left image, disparity, filters.
 
@@ -105,7 +79,7 @@ class TrackPoint(PointFilter):
 
     def __init__(self, u: float, v: float, settings: PointSettings, designs: Designs,
                  window: int | None = None) -> None:
-        # a track's own window (edge.anchor.ship_window) rides in its copy of the settings
+        # a track's own window (edge.measure.anchor.ship_window) rides in its copy of the settings
         super().__init__(settings if window in (None, settings.window) else replace(settings, window=window),
                          designs)
         self.u, self.v = u, v
@@ -145,7 +119,7 @@ class TrackPoint(PointFilter):
         self._reset_filters()
 
     def set_window(self, window: int, rect: Rectifier) -> None:
-        """Match with another window side from now on (edge.anchor.ship_window for the ship's size
+        """Match with another window side from now on (edge.measure.anchor.ship_window for the ship's size
         now), at the same point: its template is re-taken from the last image, the filters go on."""
         self.s = replace(self.s, window=window)
         self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)
@@ -169,12 +143,13 @@ class TrackPoint(PointFilter):
 
         `skipped` pairs were missing since the last call (the filters coast through them).
         `candidates()` lists other points on the ship to try while searching. Runs `steps` with the
-        per-point core functions; `edge.pointbatch.step_points` runs many points' `steps` batched."""
+        per-point core functions; `edge.measure.batch.step_points` runs many points' `steps` batched."""
         return run_one(self.steps(left, right, rect, skipped, candidates))
 
     def steps(self, left: np.ndarray, right: np.ndarray, rect: Rectifier, skipped: int = 0,
               candidates: Callable[[], list[tuple[float, float]]] | None = None) -> Steps:
-        """`step` as a generator that yields its core requests (edge.pointbatch) and is sent the answers."""
+        """`step` as a generator that yields its core requests (edge.measure.batch) and is sent the
+        answers."""
         for _ in range(skipped):
             self._coast()
         self.frame += 1

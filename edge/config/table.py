@@ -1,4 +1,4 @@
-"""Render a schema dataclass (edge.schema) as a markdown key table for the README.
+"""Render a schema dataclass (edge.config.schema) as a markdown key table for the README.
 
 One row per key path (``outputs.nmea[].baud``): what it accepts (the same
 words the loader uses in its error messages), its default and its ``doc``.
@@ -12,7 +12,7 @@ from typing import Any, get_args, get_origin, get_type_hints
 
 import yaml
 
-from edge.schema import NONE_TYPE, child_key, describe, join_repr, tag_field, union_members
+from edge.config.schema import NONE_TYPE, child_key, describe, join_repr, tag_field, union_members
 
 
 def _default_text(f: dataclasses.Field) -> str:

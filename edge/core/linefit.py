@@ -1,0 +1,45 @@
+"""Median and least-squares line of the few values a track keeps, and the fitted slope's error.
+
+In plain Python on purpose: np.median and np.polyfit cost 20-40 us a call, more than the work
+itself on a handful of values. `slope_sigma` is the fitted slope's standard error, which says how
+far the image motion (and the lateral speed from it) can be trusted.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+
+
+def median(values: Iterable[float]) -> float:
+    """Median of a short sequence (sorted(); np.median's overhead is ~20 us on a handful of values)."""
+    v = sorted(values)
+    n = len(v)
+    return float(v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2]))
+
+
+def line_fit(points: Sequence[tuple[float, float]]) -> tuple[float, float]:
+    """Least-squares line through (t, y) points: (y at the last t, slope per unit t)."""
+    t_last = points[-1][0]
+    n = len(points)
+    st = sum(p[0] - t_last for p in points)
+    sy = sum(p[1] for p in points)
+    stt = sum((p[0] - t_last) ** 2 for p in points)
+    sty = sum((p[0] - t_last) * p[1] for p in points)
+    den = n * stt - st * st
+    slope = (n * sty - st * sy) / den if den else 0.0
+    return (sy - slope * st) / n, slope
+
+
+def slope_sigma(points: Sequence[tuple[float, float]], intercept: float, slope: float, floor: float) -> float:
+    """Standard error of a fitted line's slope (per unit t): the residual scatter, at least `floor`,
+    over sqrt(sum (t - mean t)^2); infinite for fewer than three points."""
+    n = len(points)
+    if n < 3:
+        return math.inf
+    t_last = points[-1][0]
+    t_mean = sum(p[0] for p in points) / n
+    stt = sum((p[0] - t_mean) ** 2 for p in points)
+    ss = sum((p[1] - intercept - slope * (p[0] - t_last)) ** 2 for p in points)
+    scatter2 = max(ss / (n - 2), floor * floor)
+    return math.sqrt(scatter2 / stt) if stt > 0 else math.inf

@@ -1,0 +1,8 @@
+"""The per-pair measurement chain, between the frame pair and the list of fixes.
+
+`detect` finds ships in the left image; `tracks` keeps the track table (ids, Q/T/L, association
+with `boxes`); `point` is one track's point (reference by `anchor`, left follow, right match),
+its disparity filter is `pointfilter`, designed from the ship-motion bound by `ranging`; `batch`
+answers all tracks' core requests together; `settings` holds the knobs every track shares.
+Nothing here does I/O or encodes an output.
+"""

@@ -1,0 +1,52 @@
+"""The disparity filter's designs: Kalman tables per noise level and acceleration rung, shared by all tracks.
+
+The white acceleration of a track's design comes from the ship-motion bound of its disparity
+(`edge.core.shipmotion.accel_rung`): far ships change disparity so slowly that a design built for
+them may average over much longer than one built for a ship a few hundred metres away.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+from edge.core.kalman import KalmanDesign, design_kalman
+from edge.measure.settings import PointSettings
+
+
+class Designs:
+    """The Kalman tables of one setting, computed once (lazily per noise level) and shared by all tracks.
+
+    The measurement noise of a track is not known in advance: a textured bridge at 1 km
+    matches to a few hundredths of a pixel, a small hull in fog to half a pixel. Each track
+    measures its own scatter and uses the design of the matching rung of NOISE_LADDER_PX
+    (edge.measure.pointfilter, factors of 2), so the gate and the reported sigma fit the data actually seen;
+    and the acceleration rung of its disparity (`accel_rung`)."""
+
+    def __init__(self, s: PointSettings) -> None:
+        self.s, self._tables = s, {}
+
+    def disparity(self, sigma_px: float, accel_pxps2: float | None = None) -> KalmanDesign:
+        """The design for this noise level and white acceleration (default: the configured one).
+
+        A design below the configured acceleration averages over longer than the matcher's
+        errors stay independent (a window's texture-dependent error drifts with the ship's
+        pose over seconds: tools/evaluate --diagnose), so its innovations spread more than its
+        white-noise model says. It keeps the configured design's gate (its innovation covariance
+        tables, eq. K.6 of edge.core.kalman: the same samples are refused; the accepted ones move
+        the estimate less) and reports no less than the configured design's steady-state sigma
+        (sigma_floor_px). Its own, tighter gate was measured worse: on akashi-crossing the far
+        coaster's noisy track (raw 0.63 px RMS, unbiased) refused its own samples and coasted
+        off by 1.7 px (1.3 km, 27 fixes beyond 3 sigma), though it spared two-ships-crossing's
+        22 beyond 3 sigma while one ship passes in front of the other."""
+        s, key = self.s, (sigma_px, accel_pxps2 or self.s.sigma_accel_pxps2)
+        if key not in self._tables:
+            design = design_kalman(s.fps, sigma_px, key[1], gate_sigma=s.gate_sigma,
+                                   reacquire_s=s.reacquire_s)
+            if key[1] < s.sigma_accel_pxps2:
+                top = self.disparity(sigma_px)
+                design = replace(design, sigma_floor_px=math.sqrt(top.post_var[-1] + top.sigma_floor_px**2),
+                                 cov_q36=top.cov_q36, coast_q_q36=top.coast_q_q36)
+            self._tables[key] = design
+        return self._tables[key]
+
