@@ -1,14 +1,10 @@
-"""Helpers shared by several test modules: the CLI as a subprocess, a tools/ script as a module,
-band-limited test textures."""
+"""Helpers shared by several test modules: the CLI as a subprocess, band-limited test textures."""
 
 from __future__ import annotations
 
-import importlib.machinery
-import importlib.util
 import subprocess
 import sys
 from pathlib import Path
-from types import ModuleType
 
 import cv2
 import numpy as np
@@ -20,16 +16,6 @@ def run_cli(*args: str | Path, cwd: Path = ROOT, timeout_s: float = 120.0) -> su
     """`mast-stereo ARGS` in a fresh interpreter, output captured as text."""
     return subprocess.run([sys.executable, "-m", "edge.cli", *map(str, args)], cwd=cwd,
                           capture_output=True, text=True, timeout=timeout_s)
-
-
-def load_tool(name: str) -> ModuleType:
-    """The script tools/NAME (no .py suffix) loaded as a module, to test its functions."""
-    module_name = f"{name.replace('-', '_')}_tool"
-    loader = importlib.machinery.SourceFileLoader(module_name, str(ROOT / "tools" / name))
-    spec = importlib.util.spec_from_loader(loader.name, loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
 
 
 def band_texture(seed: int, h: int, w: int, sigma: float = 1.2) -> np.ndarray:

@@ -8,9 +8,9 @@ import argparse
 import numpy as np
 
 from edge.bench.common import table
-from edge.core import tracksim as ts
 from edge.core.butterworth import ButterworthQ
 from edge.core.kalman import DisparityKalmanFloat, design_kalman
+from edge.sim import tracksim as ts
 
 TUNE_SEED0 = 5000
 EVAL_SEED0 = 1000

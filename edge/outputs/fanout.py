@@ -87,14 +87,19 @@ class Outputs:
         fanout = cls(outputs, health)
         if servers:
             order = WordOrder.HIGH_FIRST if cfg.modbus.word_order == "high_first" else WordOrder.LOW_FIRST
-            identity = Identity(firmware_version(), max_tracks, order, site_lat_deg, site_lon_deg)
-            fanout.add(ModbusOutput(servers, identity, health.snapshot, fanout.target_numbers, clock))
+            fanout.add_modbus(servers, Identity(firmware_version(), max_tracks, order, site_lat_deg,
+                                                site_lon_deg), clock)
         return fanout
 
     def add(self, output: Output) -> None:
         """One more output (e.g. the demo's NMEA stream), served with the others of its stage."""
         self.outputs.append(output)
         self.outputs.sort(key=lambda o: STAGE_ORDER[o.stage])  # stable: configuration order kept
+
+    def add_modbus(self, servers: Sequence[ModbusServer], identity: Identity,
+                   clock: Callable[[], float] = time.monotonic) -> None:
+        """The Modbus servers as one output, publishing this fan-out's health and target numbers."""
+        self.add(ModbusOutput(servers, identity, self.health.snapshot, self.target_numbers, clock))
 
     def start(self) -> None:
         for out in self.outputs:

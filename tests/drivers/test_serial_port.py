@@ -8,7 +8,6 @@ when socat is restarted at the same (symlinked) path.
 
 from __future__ import annotations
 
-import importlib.util
 import logging
 import os
 import socket
@@ -19,12 +18,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+import socat_pty
 
 from drivers.serial_port import PySerialPort, VirtualSerialPort
-
-_spec = importlib.util.spec_from_file_location("socat_pty", Path(__file__).parents[1] / "socat_pty.py")
-socat_pty = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
-_spec.loader.exec_module(socat_pty)  # type: ignore[union-attr]
 
 LOGGER = "drivers.serial_port"
 

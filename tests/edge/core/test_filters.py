@@ -8,10 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.signal import sosfilt, sosfilt_zi, sosfreqz
 
-from edge.core import tracksim as ts
 from edge.core.butterworth import ButterworthFloat, ButterworthQ, butterworth_sos, design_q14, group_delay_s
 from edge.core.fixedpoint import BIQUAD_COEF_BITS, round_shift
 from edge.core.kalman import DisparityKalman, DisparityKalmanFloat, design_kalman
+from edge.sim import tracksim as ts
 
 SETTINGS = [(0.5, 10.0), (0.2, 10.0), (0.5, 30.0), (0.2, 30.0), (0.1, 30.0)]
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from edge.core import tracksim as ts
 from edge.core.kalman import Q8_ROUNDING_VAR, DisparityKalman, DisparityKalmanFloat, design_kalman
+from edge.sim import tracksim as ts
 
 BOUND = {"bound_s": 600.0, "bound_risk": 0.05}
 MATCHER_BIAS = 0.008 * np.sin(4 * np.pi * np.arange(32) / 32)     # second harmonic, as measured

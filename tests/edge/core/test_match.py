@@ -187,12 +187,7 @@ def test_real_imagery_no_worse_than_stereobm() -> None:
     clipped x-Sobel prefilter our ZSSD+cancellation is at least as good as OpenCV StereoBM at the
     same textured points (RMS and median against ground truth, gross errors no more)."""
     pytest.importorskip("skimage")
-    import importlib.util
-    from pathlib import Path
-    path = Path(__file__).resolve().parents[3] / "tools" / "_bench_real.py"
-    spec = importlib.util.spec_from_file_location("_bench_real", path)
-    real = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(real)
+    from edge.bench import real
     pair = real.load_motorcycle()
     pts = real.textured_points(pair, 9)
     errors = real.evaluate(pair, pts)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from edge.core import synth
 from edge.core.refpoint import PointTrack, track_point
+from edge.sim import synth
 
 X0, Y0 = 8 * synth.SAMPLES_PER_PX, 8 * synth.ROWS_PER_PX     # view origin in the fine scene
 

@@ -46,7 +46,8 @@ def test_nmea_and_modbus_carry_the_same_tracks_and_numbers() -> None:
     port = VirtualSerialPort()
     nmea = NmeaSerialOutput("virtual", port=port, clock=clock)
     server = VirtualModbusServer()
-    outputs = Outputs([nmea], [server], Identity(firmware_version()), health, clock=clock)
+    outputs = Outputs([nmea], health)
+    outputs.add_modbus([server], Identity(firmware_version()), clock)
     outputs.start()
     fixes = [fix(5, 1500.0), fix(9, 2500.0)]
     outputs.publish(fixes, T_NS)
@@ -94,7 +95,8 @@ def test_modbus_that_cannot_start_is_a_retried_fault_not_a_crash() -> None:
     clock = Clock()
     health = HealthMonitor(standard_stages(OUTPUT_STAGES), clock=clock)
     server = RefusingServer(refusals=2)
-    outputs = Outputs([], [server], Identity(firmware_version()), health, clock=clock)
+    outputs = Outputs([], health)
+    outputs.add_modbus([server], Identity(firmware_version()), clock)
     outputs.start()  # attempt 1 fails
     outputs.publish([fix(1, 900.0)], T_NS)  # within back-off: no new attempt
     assert server.attempts == 1 and not server.images
@@ -135,7 +137,7 @@ def test_tracks_csv_gets_every_fix_and_survives_a_missing_directory(tmp_path) ->
     path = tmp_path / "later" / "tracks.csv"  # directory not there yet: a fault, retried
     csv_out = TracksCsvOutput(str(path))
     csv_out.file.retry_initial_s = csv_out.file.retry_max_s = 0.05
-    outputs = Outputs([], [], Identity(firmware_version()), health, clock=clock, tracks_csv=csv_out)
+    outputs = Outputs([csv_out], health)
     outputs.start()
     outputs.publish([fix(1, 900.0)], T_NS)
     assert wait_for(lambda: csv_out.health()[0] is not None)
@@ -148,3 +150,35 @@ def test_tracks_csv_gets_every_fix_and_survives_a_missing_directory(tmp_path) ->
     assert path.read_text().splitlines()[0] == CSV_HEADER
     assert [(r["track_id"], r["range_m"]) for r in rows] == [("1", "900.000"), ("1", "905.000"),
                                                              ("2", "1800.000")]
+    assert outputs.sent["csv_rows"] == 3  # rows, not characters
+    assert {s.name: s for s in health.snapshot().stages}["tracks_csv"].counters["csv_rows"] == 3
+
+
+def test_every_output_keeps_the_contract_and_counts_in_its_own_unit(tmp_path) -> None:
+    """Serial groups, UDP datagrams and CSV rows are counted apart (they were once summed into one
+    'groups' counter), each output kind satisfies `Output`, and start() needs no kind checks."""
+    import io
+
+    from drivers.udp import VirtualUdpSender
+    from edge.outputs.base import Output
+    from edge.outputs.nmea_stream import NmeaStreamOutput
+    from edge.outputs.nmea_udp import NmeaUdpOutput
+    from edge.outputs.tracks_csv import TracksCsvOutput
+
+    clock = Clock()
+    health = HealthMonitor(standard_stages(OUTPUT_STAGES), clock=clock)
+    port, udp = VirtualSerialPort(), VirtualUdpSender()
+    outs = [NmeaSerialOutput("virtual", port=port, clock=clock), NmeaUdpOutput(sender=udp, clock=clock),
+            NmeaStreamOutput(io.StringIO(), clock=clock), TracksCsvOutput(str(tmp_path / "t.csv"))]
+    outputs = Outputs(outs, health)
+    outputs.add_modbus([VirtualModbusServer()], Identity(firmware_version()), clock)
+    assert all(isinstance(o, Output) for o in outputs.outputs)
+    assert [o.stage for o in outputs.outputs] == ["nmea"] * 3 + ["tracks_csv", "modbus"]
+    outputs.start()
+    outputs.publish([fix(1, 900.0), fix(2, 1800.0)], T_NS)
+    outputs.close()
+    # two tracks: two TTM+TLL groups on serial and stream, four datagrams (one per sentence)
+    assert dict(outputs.sent) == {"nmea_serial_groups": 2, "nmea_udp_datagrams": 4, "nmea_stream_groups": 2,
+                                  "csv_rows": 2, "modbus_images": 1}
+    nmea = {s.name: s for s in health.snapshot().stages}["nmea"].counters
+    assert (nmea["nmea_serial_groups"], nmea["nmea_udp_datagrams"], nmea["nmea_stream_groups"]) == (2, 4, 2)

@@ -19,8 +19,8 @@ import pytest
 from drivers.udp import VirtualUdpSender
 from edge.encode.nmea import tll, ttm
 from edge.fix import ShipFix, TrackStatus
-from edge.outputs.nmea_serial import NmeaSchedule
 from edge.outputs.nmea_udp import NmeaUdpOutput
+from edge.outputs.schedule import NmeaSchedule
 
 GROUP = "239.192.0.2"
 TAG_BLOCK = re.compile(rb"UdPbC\x00\\(?P<body>[^*\\]*)\*(?P<cs>[0-9A-F]{2})\\(?P<sentence>\$[^\r\n]*\r\n)")

@@ -23,7 +23,7 @@ from edge.config.schema import describe, load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table, schema_rows
 from edge.errors import EX_CONFIG, ConfigError
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 @dataclass(frozen=True)

@@ -1,22 +1,17 @@
-"""tools/_eval_metrics: the IMO share against the bridge and against the hull outline."""
+"""edge.evaluate.metrics: the IMO share against the bridge and against the hull outline."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-
-import _eval_metrics as em  # noqa: E402
-
-from edge.fix import ShipFix, TrackStatus  # noqa: E402
+import edge.evaluate.metrics as em
+from edge.fix import ShipFix, TrackStatus
 
 
 def _ship(range_m: float) -> em.Ship:

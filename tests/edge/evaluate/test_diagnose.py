@@ -1,18 +1,14 @@
-"""tools/_eval_diagnose: the window scan's table (mean and RMS per range bin and leg)."""
+"""edge.evaluate.diagnose: the window scan's table (mean and RMS per range bin and leg)."""
 
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-
-import _eval_diagnose as ed  # noqa: E402
+import edge.evaluate.diagnose as ed
 
 
 def _probe(range_m: float, receding: bool, scan: tuple[float, ...]) -> ed.Probe:

@@ -31,7 +31,7 @@ from edge.encode.registers import (
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthSnapshot, HealthState, Status
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 T0_NS = 1_790_000_000_123_456_789
 HEALTH = HealthSnapshot(HealthState.OK, "", int(Status.OK | Status.TRACKER_RUNNING), 0, 29.97, 0.0456,
                         70000.7)

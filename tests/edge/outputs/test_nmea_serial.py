@@ -10,7 +10,6 @@ XON/XOFF flow control (or by a virtual port that never returns).
 from __future__ import annotations
 
 import datetime as dt
-import importlib.util
 import math
 import statistics
 import time
@@ -19,22 +18,13 @@ from pathlib import Path
 import numpy as np
 import pynmea2
 import pytest
+import socat_pty
 
 from drivers.serial_port import VirtualSerialPort
 from edge.encode.nmea import MAX_SENTENCE_CHARS
 from edge.fix import ShipFix, TrackStatus
-from edge.outputs.nmea_serial import (
-    BURST_S,
-    NmeaSchedule,
-    NmeaScheduler,
-    NmeaSerialOutput,
-    schedule_from_config,
-    serial_bytes_per_s,
-)
-
-_spec = importlib.util.spec_from_file_location("socat_pty", Path(__file__).parents[2] / "socat_pty.py")
-socat_pty = importlib.util.module_from_spec(_spec)  # type: ignore[arg-type]
-_spec.loader.exec_module(socat_pty)  # type: ignore[union-attr]
+from edge.outputs.nmea_serial import NmeaSerialOutput, serial_bytes_per_s
+from edge.outputs.schedule import BURST_S, NmeaSchedule, NmeaScheduler, schedule_from_config
 
 T0_NS = 1_780_000_000 * 10**9
 SITE_LAT, SITE_LON = 53.54, 9.96
@@ -219,7 +209,8 @@ def test_schedule_from_the_appliance_configuration() -> None:
 def test_pty_reader_gets_exactly_the_scheduled_sentences_inside_the_4800_baud_budget(tmp_path: Path) -> None:
     with socat_pty.SocatPair(tmp_path) as pair:
         reader = socat_pty.start_reader(pair.b, idle_s=1.5)
-        out = NmeaSerialOutput(pair.a, baud=4800, write_timeout_s=2.0).start()
+        out = NmeaSerialOutput(pair.a, baud=4800, write_timeout_s=2.0)
+        out.start()
         sent: list[str] = []
         start = time.monotonic()
         while (now := time.monotonic()) - start < 7.5:
@@ -260,17 +251,20 @@ def _step_times(
 
 def test_stalled_port_does_not_slow_processing(tmp_path: Path) -> None:
     with socat_pty.SocatPair(tmp_path) as pair:
-        pty = NmeaSerialOutput(pair.a, baud=38400, xonxoff=True, queue_max=8, write_timeout_s=0.3).start()
+        pty = NmeaSerialOutput(pair.a, baud=38400, xonxoff=True, queue_max=8, write_timeout_s=0.3)
+        pty.start()
         deadline = time.monotonic() + 5.0
         while not pty.port.stats().connected and time.monotonic() < deadline:
             time.sleep(0.01)  # opening flushes input: XOFF must come after
         reader = socat_pty.start_reader(pair.b, xoff=True, max_s=20.0)  # sends XOFF, never reads
         virtual_port = VirtualSerialPort(queue_max=8)
         virtual_port.stall()  # blocks forever
-        virtual = NmeaSerialOutput("virtual", baud=38400, port=virtual_port).start()
+        virtual = NmeaSerialOutput("virtual", baud=38400, port=virtual_port)
+        virtual.start()
         # the baseline does the same scheduling and formatting into a port that takes everything,
         # so the ratio measures blocking alone, not the cost of building sentences
-        healthy = NmeaSerialOutput("virtual", baud=38400, port=VirtualSerialPort(queue_max=8)).start()
+        healthy = NmeaSerialOutput("virtual", baud=38400, port=VirtualSerialPort(queue_max=8))
+        healthy.start()
         steps: dict[str, list[float]] = {"healthy": [], "pty": [], "virtual": []}
         longest_publish_s = 0.0
         for round_ in range(4):  # interleaved, so changes in machine load hit all alike
@@ -294,7 +288,8 @@ def test_stalled_port_does_not_slow_processing(tmp_path: Path) -> None:
 
 def test_health_reports_the_port_state() -> None:
     port = VirtualSerialPort(present=False, retry_initial_s=0.01, retry_max_s=0.02)
-    out = NmeaSerialOutput("virtual", port=port).start()
+    out = NmeaSerialOutput("virtual", port=port)
+    out.start()
     out.publish([fix(1, 0.0)])
     deadline = time.monotonic() + 5
     while out.health()[0] != "serial port lost" and time.monotonic() < deadline:

@@ -10,8 +10,9 @@ from helpers import band_texture, shifted_u8
 
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
+from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2
 from edge.measure.point import FOLLOW_GATE_PX, REFIT_COLUMNS, TrackPoint
-from edge.measure.ranging import MAX_SHIP_ACCEL_MPS2, Designs
+from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 
 W, H = 320, 160

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import load_tool
 
+import edge.evaluate.horizon as horizon
 from edge.measure.detect import HORIZON_BANDS
 
 FRAMES = 30  # 6 detection passes
@@ -25,7 +25,7 @@ def short_recording(recording) -> Path:
 
 def test_the_offset_follows_a_pitch_error_and_is_below_the_sea_horizon(short_recording: Path,
                                                                         capsys) -> None:
-    tool = load_tool("horizon-offset")
+    tool = horizon
     exact = tool.measure(short_recording)
     wrong = tool.measure(short_recording, ERROR_DEG)
     assert exact["shift_px"] == 0.0

@@ -23,7 +23,7 @@ from edge.core.camera import PinholeCamera, Poly10Camera, StereoRig
 from edge.core.site import Site
 from edge.errors import EX_CONFIG, ConfigError
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 EXAMPLES = ("akashi-pinhole.yaml", "akashi-poly10.yaml")
 
 

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from pynmeagps import VALCKSUM, VALMSGID, NMEAReader
 from pynmeagps.nmeatypes_core import CH, DE, IN, ST, TM
 
-from edge import nmea
+from edge.encode import nmea
 from edge.fix import ShipFix, TrackStatus
 
 T_EXAMPLE_NS = int(dt.datetime(2026, 5, 1, 12, 35, 19, 500000, tzinfo=dt.UTC).timestamp()) * 10**9

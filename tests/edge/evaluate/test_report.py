@@ -6,13 +6,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from helpers import load_tool
 
+import edge.evaluate.report as report
 from edge.measure.tracks import TrackTable
 
 
 def _evaluate():
-    return load_tool("evaluate")
+    return report
 
 
 @pytest.fixture(scope="module")

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import pytest
-from helpers import load_tool
 
+import edge.bench.pipeline as bench_tool
 from edge.config.calibration import calibration_from_dict
 from edge.sim.ships import ShipModel
 
 
 def _bench():
-    return load_tool("bench")
+    return bench_tool
 
 
 @pytest.mark.parametrize("size", [720, 2048])

@@ -1,4 +1,5 @@
-"""ranging: the d'' bound holds for ships that keep to speed and acceleration limits; the ladder."""
+"""shipmotion: the d'' bound holds for ships that keep to speed and acceleration limits; the ladder;
+the world velocity from image rates equals the derivative of the triangulated track."""
 
 from __future__ import annotations
 
@@ -9,15 +10,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.measure.ranging import (
+from edge.core.shipmotion import (
     ACCEL_RUNGS,
     MAX_SHIP_ACCEL_MPS2,
     MAX_SHIP_SPEED_MPS,
-    Designs,
     accel_rung,
     disparity_accel_bound,
+    world_velocity,
+    world_velocity_sigma,
 )
-from edge.measure.settings import PointSettings
 
 FB = 2600.0 * 8.14  # the 2048 px rig's f L_B, px m
 
@@ -65,15 +66,29 @@ def test_rung_grows_with_disparity_and_without_a_rig_scale_is_the_configured_val
     assert accel_rung(4.0, 0.0, 0.05) == 0.05
 
 
-def test_designs_are_shared_per_noise_and_acceleration() -> None:
-    designs = Designs(PointSettings(fps=10.0))
-    a = designs.disparity(0.08)
-    assert designs.disparity(0.08) is a and designs.disparity(0.08, 0.05) is a
-    b = designs.disparity(0.08, 0.05 / 8)
-    assert b is not a and b.sigma_accel_pxps2 == 0.05 / 8
-    # less process noise: the filter averages longer, so its steady-state variance is smaller, but
-    # it reports no less than the configured design (errors correlated over time do not average)
-    assert b.post_var[-1] < a.post_var[-1]
-    assert b.sigma_floor_px**2 == pytest.approx(a.post_var[-1] + a.sigma_floor_px**2)
-    # and refuses what the configured design refuses (its gate's covariance tables, eq. K.6)
-    assert (b.cov_q36, b.coast_q_q36, b.r_q36, b.gate2_q8) == (a.cov_q36, a.coast_q_q36, a.r_q36, a.gate2_q8)
+@settings(max_examples=60, deadline=None)
+@given(st.floats(300.0, 5000.0), st.floats(-800.0, 800.0), st.floats(-12.0, 12.0), st.floats(-12.0, 12.0))
+def test_world_velocity_is_the_derivative_of_the_triangulated_track(z_m: float, x_m: float, vx_mps: float,
+                                                                    vz_mps: float) -> None:
+    """A ship moving at (vx, vz): u and d from eq. 4.1's inverse, their rates by central differences;
+    world_velocity gives the velocity back (the rates are first-order exact for a short step)."""
+    f, b, cx = 2600.0, 8.14, 1023.5
+
+    def image(t_s: float) -> tuple[float, float]:
+        x, z = x_m + vx_mps * t_s, z_m + vz_mps * t_s
+        return cx + f * (x + b / 2) / z, f * b / z  # left column, disparity
+
+    h = 1e-3
+    (u0, d0), (u1, d1), (u2, d2) = image(-h), image(0.0), image(h)
+    u_rate, d_rate = (u2 - u0) / (2 * h), (d2 - d0) / (2 * h)
+    vx, vz = world_velocity(f, b, np.array([u1]), cx, np.array([d1]), np.array([d_rate]), np.array([u_rate]))
+    assert vx[0] == pytest.approx(vx_mps, abs=1e-4) and vz[0] == pytest.approx(vz_mps, abs=1e-4)
+
+
+def test_world_velocity_sigma_is_unknown_without_rate_sigmas_and_linear_in_them() -> None:
+    one = np.array([1.0])
+    sd = world_velocity_sigma(2600.0, 8.14, one * 1200.0, 1023.5, one * 5.0, one * 0.01, one * 0.1)
+    assert sd[0] > 0 and world_velocity_sigma(2600.0, 8.14, one * 1200.0, 1023.5, one * 5.0,
+                                              one * 0.02, one * 0.2)[0] == pytest.approx(2 * sd[0])
+    unknown = world_velocity_sigma(2600.0, 8.14, one * 1200.0, 1023.5, one * 5.0, one * math.inf, one)
+    assert not unknown[0] < 1e9

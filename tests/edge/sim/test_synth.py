@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from edge.core import synth
+from edge.sim import synth
 
 
 def test_whole_pixel_disparity_is_an_exact_crop() -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from edge.config.app import schema_markdown
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_readme_config_table_is_the_generated_one() -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from edge.core import tracksim as ts
+from edge.sim import tracksim as ts
 
 
 @pytest.mark.parametrize("sc", [ts.SHIP, ts.FAST_BOAT], ids=lambda s: s.name)

@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from helpers import load_tool
+
+import edge.evaluate.gates as gates
 
 FRAMES = 14  # the freighter of akashi-crossing turns T about 1 s (10 pairs) after its birth
 
@@ -17,7 +18,7 @@ def short_recording(recording) -> Path:
 
 
 def test_acquiring_time_is_charged_to_the_gates(short_recording: Path, capsys) -> None:
-    tool = load_tool("track-gates")
+    tool = gates
     info = tool.run(short_recording, set(), None)
     fps = 10.0
     turned = [rec for rec in info.values() if rec["T"] is not None]
@@ -36,5 +37,5 @@ def test_acquiring_time_is_charged_to_the_gates(short_recording: Path, capsys) -
 
 def test_a_track_id_typo_is_an_argparse_error(capsys) -> None:
     with pytest.raises(SystemExit) as stop:
-        load_tool("track-gates").main(["/nonexistent", "--tracks", "2x"])
+        gates.main(["/nonexistent", "--tracks", "2x"])
     assert stop.value.code == 2 and "--tracks" in capsys.readouterr().err
