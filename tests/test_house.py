@@ -1,13 +1,19 @@
 """House rules that keep the architecture honest (DESIGN.md, "The house").
 
-- `edge/core` is pure computation: no I/O, threads, drivers or config parsing.
-- `drivers` never import `edge`.
+- no import cycle anywhere in `edge/` and `drivers/`, `TYPE_CHECKING` imports counted;
+- `edge/core` is pure computation (no I/O, threads, drivers or config parsing) and imports
+  nothing of `edge` outside itself;
+- `edge/measure` never imports outputs, encodings, the daemon or the replay runner;
+- `edge/outputs` and `edge/encode` never import the runners or the commands;
+- `drivers` never import `edge`;
+- `tools/` are thin executables over the installed package: no sys.path edits, no helper modules;
 - every module has a docstring and stays small.
 """
 
 from __future__ import annotations
 
 import ast
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -17,6 +23,15 @@ CORE_FORBIDDEN = {
     "os", "sys", "io", "pathlib", "threading", "multiprocessing", "subprocess", "socket",
     "asyncio", "serial", "pymodbus", "yaml", "drivers", "logging", "time", "shutil", "tempfile",
 }
+LAYER_RULES = {  # package prefix: module prefixes it must not import
+    "edge.core": ("edge.measure", "edge.encode", "edge.outputs", "edge.config", "edge.sim", "edge.evaluate",
+                  "edge.bench", "edge.commands", "edge.daemon", "edge.replay", "edge.pipeline", "edge.health",
+                  "edge.fix", "edge.errors", "edge.cli", "edge.inputs"),
+    "edge.measure": ("edge.outputs", "edge.encode", "edge.daemon", "edge.replay", "edge.commands"),
+    "edge.outputs": ("edge.replay", "edge.daemon", "edge.commands"),
+    "edge.encode": ("edge.replay", "edge.daemon", "edge.commands", "edge.outputs"),
+    "drivers": ("edge",),
+}
 MAX_LINES = 450
 
 
@@ -24,15 +39,108 @@ def _modules(package: str) -> list[Path]:
     return sorted((ROOT / package).rglob("*.py"))
 
 
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _import_nodes(tree: ast.AST) -> Iterator[ast.Import | ast.ImportFrom]:
+    """Every import statement, wherever it sits: module level, functions, `if TYPE_CHECKING:`."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            yield node
+
+
 def _imports(path: Path) -> set[str]:
+    """Absolute module names this file imports; `from pkg import mod` also names `pkg.mod`."""
     tree = ast.parse(path.read_text(), filename=str(path))
     names: set[str] = set()
-    for node in ast.walk(tree):
+    for node in _import_nodes(tree):
         if isinstance(node, ast.Import):
             names.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+        elif node.module and node.level == 0:
             names.add(node.module)
+            names.update(f"{node.module}.{alias.name}" for alias in node.names)
     return names
+
+
+def _graph() -> dict[str, set[str]]:
+    """Module -> the project modules it imports. `from pkg import mod` is an edge to `pkg.mod` only
+    (the package's __init__ runs first whatever is imported, so it is not an edge of its own);
+    `from pkg import name` of a non-module name is an edge to the package's __init__."""
+    files = {_module_name(p): p for p in _modules("edge") + _modules("drivers")}
+    graph: dict[str, set[str]] = {}
+    for name, path in files.items():
+        targets: set[str] = set()
+        for node in _import_nodes(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                targets.update(alias.name for alias in node.names)
+            elif node.module and node.level == 0:
+                for alias in node.names:
+                    sub = f"{node.module}.{alias.name}"
+                    targets.add(sub if sub in files else node.module)
+        graph[name] = {t for t in targets if t in files and t != name}
+    return graph
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_cycle_finder_finds_a_type_checking_cycle() -> None:
+    """The checker itself: a cycle closed only under TYPE_CHECKING is still a cycle."""
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert _cycles(graph) == [["a", "b", "c"]]
+    source = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from edge.measure.point import X\n"
+    assert "edge.measure.point" in {n.module for n in _import_nodes(ast.parse(source))
+                                    if isinstance(n, ast.ImportFrom)}
+
+
+def test_no_import_cycle_in_edge_or_drivers() -> None:
+    assert _cycles(_graph()) == []
+
+
+@pytest.mark.parametrize(
+    "path", _modules("edge") + _modules("drivers"), ids=lambda p: str(p.relative_to(ROOT))
+)
+def test_layers_import_only_downwards(path: Path) -> None:
+    module = _module_name(path)
+    for package, forbidden in LAYER_RULES.items():
+        if module == package or module.startswith(package + "."):
+            for name in _imports(path):
+                bad = [f for f in forbidden if name == f or name.startswith(f + ".")]
+                assert not bad, f"{path}: {package} must not import {name}"
 
 
 @pytest.mark.parametrize("path", _modules("edge/core"), ids=lambda p: p.name)
@@ -46,10 +154,18 @@ def test_core_is_pure(path: Path) -> None:
     assert "open(" not in source.replace("reopen(", ""), f"{path}: edge/core must not do file I/O"
 
 
-@pytest.mark.parametrize("path", _modules("drivers"), ids=lambda p: str(p.relative_to(ROOT)))
-def test_drivers_never_import_edge(path: Path) -> None:
-    for name in _imports(path):
-        assert name.split(".")[0] != "edge", f"{path} imports {name}"
+def _tools() -> list[Path]:
+    return sorted(p for p in (ROOT / "tools").iterdir() if p.is_file())
+
+
+@pytest.mark.parametrize("path", _tools(), ids=lambda p: p.name)
+def test_tools_are_thin_executables_over_the_installed_package(path: Path) -> None:
+    source = path.read_text()
+    assert path.suffix != ".py", f"{path}: tools/ holds executables, not helper modules"
+    assert "sys.path" not in source and "PYTHONPATH" not in source, f"{path} edits the import path"
+    assert "spec_from_file_location" not in source and "SourceFileLoader" not in source, path
+    if source.startswith("#!") and "python" in source.splitlines()[0]:
+        assert source.count("\n") <= 40, f"{path}: put the work in the package, keep the tool a thin entry"
 
 
 @pytest.mark.parametrize(
@@ -60,3 +176,7 @@ def test_module_has_docstring_and_stays_small(path: Path) -> None:
     tree = ast.parse(source)
     assert ast.get_docstring(tree), f"{path} needs a docstring saying what it does and why"
     assert source.count("\n") <= MAX_LINES, f"{path} has {source.count(chr(10))} lines; split it"
+
+
+def test_package_ships_type_information() -> None:
+    assert (ROOT / "edge" / "py.typed").exists() and (ROOT / "drivers" / "py.typed").exists()
