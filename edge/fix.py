@@ -38,5 +38,5 @@ class ShipFix:
     sigma_m: float  # 1-sigma range error from the disparity sigma (eq. 4.5)
     disparity_px: float  # filtered disparity used for this fix
     age_s: float = 0.0  # time since the track was born
-    confidence: float | None = None  # 0..1, from match quality and filter state
+    confidence: float | None = None  # 0..1: share of the last 10 s of pairs the track was measured in
     length_m: float | None = None  # apparent ship length estimate

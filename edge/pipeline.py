@@ -209,7 +209,7 @@ class Pipeline:
                 x_m=x_m, y_m=y_m, z_m=z_m, range_m=r_m, bearing_deg=brg, lat_deg=la, lon_deg=lo,
                 sog_kn=sog_kn if moving else None,
                 cog_deg=cog_deg if moving and sog_kn >= MIN_COURSE_KN else None,
-                sigma_m=sig_m, disparity_px=d_px, age_s=t.age_s(t_ns),
+                sigma_m=sig_m, disparity_px=d_px, age_s=t.age_s(t_ns), confidence=t.confidence,
                 length_m=((x1_rel + u_px) - (x0_rel + u_px)) * z_m / f))
         return fixes
 

@@ -10,9 +10,9 @@ trigger skew and dropped frames), plus two counters:
 - ``dropped``: pairs the source knows were never produced or were thrown away
   (gaps in the sequence numbers, frames abandoned to keep up in real time).
 
-Real implementations: `v4l2.py` (two V4L2 cameras), `replay.py` (a recording
-directory); the virtual one, `virtual.py`, wraps a generator such as the
-simulator. Drivers never import `edge`.
+Implementations: `replay.py` (a recording directory, at its recorded pace or
+as fast as read) and the virtual one, `virtual.py`, which wraps a generator
+such as the simulator. Drivers never import `edge`.
 """
 
 from __future__ import annotations

@@ -51,9 +51,9 @@ row that pass the start's line test restarts on them instead of waiting 3 s: suc
 better than a new one (left: a start whose slope was > 3 sigma off, which the gate, growing by
 3 sqrt(P_vv) per frame, never catches). A start that then holds does this only after n refusals,
 each with probability p_g = outlier rate + 2 Phi(-3) (0.023 in the track test): p_g^n = 6e-9
-per frame for n = 5 (n = 3: 1e-5) before the line test. Not for confirmed tracks (measured: armed
-while the gains were still the start's, it followed consistent wrong matches in akashi-crossing,
-29 false T fixes at 3-4 km; and a glint burst is as self-consistent as the truth).      (eq. K.7)
+per frame for n = 5 (n = 3: 1e-5) before the line test. Not for confirmed tracks: armed while
+the gains are still the start's, it follows consistent wrong matches (docs/decisions.md), and a
+glint burst is as self-consistent as the truth.                                          (eq. K.7)
 
 Reported sigma (`sigma_px`), every term from the design:
 

@@ -7,38 +7,24 @@ Match.disparity_px = x_left - x_right (sub-pixel), Match.cost, Match.valid, plus
 
 Sub-pixel left point: the window is centred on the pixel (round(x), round(y)) (half away from
 zero) and the disparity found for that window is attributed to (x, y). Disparity is locally
-constant on a fronto-parallel hull, so the fraction of x does *not* change d; it moves the
-right point: x_right = x - d. (On a slanted surface with disparity gradient g the attribution
-error is at most g/2 px.)
+constant on a fronto-parallel hull, so the fraction of x does not change d; it moves the right
+point: x_right = x - d (on a slanted surface with disparity gradient g the attribution error is
+at most g/2 px).
 
-Sub-pixel (subpixel="cancel"): the symmetric Shimizu-Okutomi half-pixel passes of
-`subpixel.py`, run both ways (left window against the right image, and the matched right
-window against the left image) and averaged. The one-way version (subpixel="cancel-oneway",
-the research note's) keeps a texture-dependent bias of ~0.01 px from the window edges (the
-cost curve of a finite window is not symmetric); in the reverse direction that bias flips
-sign, so the average removes it (bench: textured RMS 0.012 -> 0.0085 px). subpixel="cancel6"
-adds the mirrored half-pixel passes (`subpixel.symmetric6_q8`): 2-4 % lower RMS.
-
-Default (subpixel="cancel6-gauss"): the six passes, each fitted with a Gaussian model of its
-NCC curve instead of a parabola of its cost curve (`subpixel.ncc_log_curves`; the ZSSD cost
-only: with cost="ssd" it is "cancel6"). tools/bench-core: textured RMS/CRB 1.83 -> 1.58,
-max bias 0.0076 -> 0.0038 px, lower RMS on every condition, ~1.3x the time of "cancel" per
-call. If a correlation is not positive or a model curve has no interior minimum it uses
-the parabola fits of "cancel6" (and the four-pass result if the mirrored passes fail).
-
-subpixel="refit": the "cancel" estimate (four parabola passes), then `refit.refit_q8`: the
-right band resampled at that estimate (8-tap windowed sinc, 1/256 px phases) and eq. 5.2 on
--log NCC refitted around zero, both ways, where pixel locking vanishes (tools/bench-core).
-One step suffices: the refit's result moves by a small fraction of the error in its start
-(tests/edge/core/test_refit.py). Where
-the refit cannot run (the interpolator needs 3 more right-image columns than the passes; no
-interior minimum) and where the predicted sigma exceeds REFIT_MAX_SIGMA_PX (noise-dominated
-windows, e.g. fog t=0.06, where its 3-sample fit is noisier than six averaged passes and
-unstable) it returns the "cancel6-gauss" estimate.
-
-The sub-pixel stage is `refine(arith, a_band, b_band, xa, d_lo, costs, k0, method)`: it takes
-only the outcome of the integer search (the row bands, the window column, the curve and its
-minimum), so a caller that runs the search for many points at once can reuse it per point.
+Sub-pixel methods (`subpixel=`), all on the integer search's outcome (`refine`, so a caller that
+searches many points at once reuses it per point):
+- "cancel6-gauss" (default): the six symmetric half-pixel passes of `subpixel.symmetric6_q8`,
+  each fitted with a Gaussian model of its NCC curve (`subpixel.ncc_log_curves`; ZSSD only,
+  with cost="ssd" it is "cancel6"), falling back to the parabola fits where a correlation is not
+  positive or a model curve has no interior minimum. Pixel locking cancels without interpolation.
+- "cancel": the four Shimizu-Okutomi passes run both ways (left window against the right image,
+  and back) and averaged: the one-way version's edge-of-window bias flips sign in the reverse
+  direction, so the average removes it. "cancel6": plus the mirrored passes.
+- "refit" (opt-in): the "cancel" estimate, then `refit.refit_q8` resamples the right band there
+  and refits eq. 5.2 on -log NCC around zero, where pixel locking vanishes; where it cannot run,
+  or the predicted sigma exceeds REFIT_MAX_SIGMA_PX (noise-dominated windows), "cancel6-gauss".
+- "parabola" (eq. 5.2, the thesis) and "none" (whole pixel): the thesis's stages.
+What each costs and gains is measured by tools/bench-core (docs/decisions.md has the history).
 
 Validity gates (research note §5): enough texture (predicted sigma <= max_sigma_px), a minimum
 strictly inside the searched range, the best other local minimum at least `min_ratio` times
@@ -46,17 +32,10 @@ the best cost, and a cost curve that brackets the minimum (den > 0). Failures co
 `valid=False` with a reason, never as an exception; only programming errors (an unknown cost or
 method name) raise ValueError.
 
-Real camera pairs: a window fit measures the disparity averaged over the window with weights
-~ Ix^2, so on a slanted or curved surface the raw fit reports the disparity at the window's
-strongest edges, not at its centre (tools/bench-core, real section: on Middlebury the raw
-error correlates 0.83 with that weighted ground truth). Passing both images through
-`edge.core.prefilter.xsobel` (or `xsobel_normalised`) first evens the weights: that beats OpenCV
-StereoBM on Middlebury but costs accuracy on renders, so it is opt-in (README, "Known limits").
-A check that swapped in the normalised fit only where the two disagree beyond noise was measured
-(commit 7af22db) and dropped: better than StereoBM on Middlebury, unchanged on renders, but worse
-in the pipeline (a ship's outline against sky or sea at another range is what the raw weights
-should follow), slower than the 100 us budget, and its integer and float paths could branch
-apart.
+Real camera pairs: a window fit weights each pixel by ~Ix^2, so on a slanted or curved surface it
+reports the disparity at the window's strongest edges, not at its centre. `edge.core.prefilter`'s
+x-Sobel prefilters even the weights; they cost accuracy on renders, so they are opt-in (README,
+"Known limits").
 
 `impl` picks the arithmetic: "int" (default, exact integers with the fast cross-correlation),
 "int-ref" (the plain int64 definition: bit-identical, slower) or "float" (float64 reference

@@ -24,7 +24,7 @@ template and candidate and E_W the candidate's zero-mean energy (E_T is common t
 exact integers from window sums and one product, log2 in Q24 (`fixedpoint.log2_q`); the six
 fits are combined as above. NCC is gain-invariant, so these passes need no contrast
 equalisation. If a correlation is not positive or a log curve has no interior minimum, the
-caller uses the parabola fits. Bench: textured RMS/CRB 1.83 -> 1.58, max bias halved.
+caller uses the parabola fits (tools/bench-core measures both; docs/decisions.md).
 
 What is left (tools/bench-core, "subpixel" and opt-in "study" sections): the half-pixel
 pairing cancels only odd harmonics of the pixel-locking curve, and exactly only if both

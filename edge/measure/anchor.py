@@ -29,8 +29,7 @@ def ship_window(patch: np.ndarray, origin: tuple[int, int], box: tuple[float, fl
     A far ship is a low-contrast blob a few px wider than the window; most of its horizontal
     texture (what sets the disparity's sigma, research note §1.4) is its two outlines against
     sky and sea. A window on one outline sees half of it; one spanning the ship sees both
-    (tools/evaluate --diagnose on approach-2048 at 3-4 km: raw disparity RMS 0.26 -> 0.09 px,
-    bias -0.07 -> 0.00 px). The wider window also takes in more background, whose texture
+    (docs/decisions.md). The wider window also takes in more background, whose texture
     pulls the disparity towards the background's: so only where the background around the
     box has at most BACKGROUND_SHARE of the ship's gradient energy per pixel (far sea and sky
     are smooth; the sea around a boat at a few hundred metres is not). A ship wider than two

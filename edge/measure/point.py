@@ -20,8 +20,8 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
 - Right match: `edge.core.match_point` on two rectified patches of the same rows and
   columns (prefilter "xsobel": both clipped x-Sobel, edge.core.prefilter), the search narrowed
   to the disparity filter's prediction once it runs (a full search at birth and after a restart);
-  sub-pixel by the six-pass Gaussian cancellation (tools/evaluate against "cancel": two-ships-crossing
-  fixes beyond 3 sigma 22 -> 0, approach-2048 4-5 km IMO 62 -> 70 %, akashi envelope unchanged).
+  sub-pixel by the six-pass Gaussian cancellation (the most accurate default in the pipeline:
+  docs/decisions.md).
 - Filter: `edge.measure.pointfilter.PointFilter` (the base of `TrackPoint`). The left point's column is
   smoothed by a least-squares line over the last second of follows: its slope is the image motion
   that predicts the next position and gives the bearing rate.

@@ -35,10 +35,8 @@ class Designs:
         white-noise model says. It keeps the configured design's gate (its innovation covariance
         tables, eq. K.6 of edge.core.kalman: the same samples are refused; the accepted ones move
         the estimate less) and reports no less than the configured design's steady-state sigma
-        (sigma_floor_px). Its own, tighter gate was measured worse: on akashi-crossing the far
-        coaster's noisy track (raw 0.63 px RMS, unbiased) refused its own samples and coasted
-        off by 1.7 px (1.3 km, 27 fixes beyond 3 sigma), though it spared two-ships-crossing's
-        22 beyond 3 sigma while one ship passes in front of the other."""
+        (sigma_floor_px). Its own, tighter gate refuses a noisy far track's own samples and lets it
+        coast off (docs/decisions.md)."""
         s, key = self.s, (sigma_px, accel_pxps2 or self.s.sigma_accel_pxps2)
         if key not in self._tables:
             design = design_kalman(s.fps, sigma_px, key[1], gate_sigma=s.gate_sigma,

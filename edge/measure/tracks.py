@@ -62,6 +62,7 @@ SEARCH_CANDIDATES = 6  # points offered to a track that lost its point on the sh
 WINDOW_VOTES = 3  # detection passes in a row that must call for another window before it changes
 GLINT_SPARE = 4  # extra candidates ranked, so those with glints can go last
 CLIPPED_DN = 250  # a window holding a pixel this bright holds a clipped sun glint
+CONFIDENCE_S = 10.0  # a track's confidence is its measured share of the pairs of this long
 
 
 @dataclass(frozen=True)
@@ -81,7 +82,8 @@ class TableSettings:
 class Track:
     """One ship: id, lifecycle and box; the measurement chain lives in `point`."""
 
-    def __init__(self, track_id: int, t_ns: int, point: TrackPoint, box: np.ndarray, confirm_m: int) -> None:
+    def __init__(self, track_id: int, t_ns: int, point: TrackPoint, box: np.ndarray, confirm_m: int,
+                 confidence_pairs: int = 1) -> None:
         self.id = track_id
         self.born_ns = t_ns
         self.status = TrackStatus.ACQUIRING
@@ -96,6 +98,7 @@ class Track:
         self.alive = True
         self.det_box = np.asarray(box, float)  # the last detection box associated to the track ...
         self.det_frame = point.frame  # ... and the point's pair it is from
+        self.measured: deque[bool] = deque([True], maxlen=confidence_pairs)  # per pair: measured, not coasted
 
     @property
     def box(self) -> np.ndarray:
@@ -103,6 +106,12 @@ class Track:
 
     def age_s(self, t_ns: int) -> float:
         return (t_ns - self.born_ns) / 1e9
+
+    @property
+    def confidence(self) -> float:
+        """The share of the last CONFIDENCE_S of pairs (fewer since birth) in which the track was
+        measured rather than coasted: skipped pairs and refused or failed matches count as coasted."""
+        return sum(self.measured) / len(self.measured)
 
 
 class TrackTable:
@@ -135,9 +144,13 @@ class TrackTable:
             du, dv = track.point.jumped
             if du or dv:  # the point moved to another part of the ship: the ship's box did not
                 track.box_rel -= np.array([du, dv, du, dv])
+            track.measured.extend([False] * skipped)
             if track.point.accepted or (track.status is TrackStatus.ACQUIRING and track.point.collected):
                 # a newborn's filter takes init_samples pairs to start (4 s at 1 fps): its samples count
                 track.last_measured_ns = t_ns
+                track.measured.append(True)
+            else:
+                track.measured.append(False)
             if not alive:  # the point is gone for good: a tentative track ends, a confirmed one is lost
                 if track.status is TrackStatus.ACQUIRING:
                     self._drop(track)
@@ -236,8 +249,8 @@ class TrackTable:
         once the ship has shrunk into it (receding, or born near): once WINDOW_VOTES detection
         passes in a row call for it, so a box edge that jitters by a pixel or two does not switch
         it back and forth. A spanning window is kept as the ship grows (as one chosen at birth
-        always was): going back to the configured one (commit 50cfce5, reverted) took
-        approach-2048's IMO share at 1-2 / 2-3 / 3-4 km from 100 / 100 / 95 % to 61 / 80 / 84 %."""
+        always was): switching back to the configured one lost far more than it gained
+        (docs/decisions.md)."""
         p = track.point
         if p.searching or p.s.window != self.ps.window:
             return
@@ -271,7 +284,8 @@ class TrackTable:
         slope = self._slope(point, left, right) if m is not None and m.valid else None
         if slope is not None and slope > BIRTH_SLOPE_SHARE * self._sea_slope():
             return  # plainly a patch of sea (see `promotion_gate`): not worth a track
-        self.tracks.append(Track(self.next_id, t_ns, point, np.asarray(box, float), self.s.confirm_m))
+        self.tracks.append(Track(self.next_id, t_ns, point, np.asarray(box, float), self.s.confirm_m,
+                                 max(1, round(CONFIDENCE_S * self.ps.fps))))
         self.next_id += 1
         self.births += 1
 

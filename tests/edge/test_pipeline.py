@@ -86,6 +86,25 @@ def test_a_gap_is_coasted_and_the_track_keeps_its_id(akashi) -> None:
     assert before and before <= after
 
 
+def test_confidence_is_the_measured_share_of_the_last_pairs(akashi) -> None:
+    """A confirmed track measured on every pair has confidence 1; a gap of 4 pairs is 4 coasted
+    pairs of its window (100 pairs at 10 fps), so right after it the share is exactly its
+    measured pairs over the pairs since birth, gap included."""
+    path, pairs = akashi
+    plain, gapped = _pipeline(path), _pipeline(path)
+    last_plain = {f.track_id: f for f in _run(plain, pairs)}
+    fixes = _run(gapped, pairs[:18] + pairs[22:23])
+    tracked = [f for f in last_plain.values() if f.status is TrackStatus.TRACKING]
+    assert tracked and all(0.0 < f.confidence <= 1.0 for f in last_plain.values())
+    for fix in tracked:
+        after = [f for f in fixes if f.track_id == fix.track_id and f.t_ns == pairs[22].t_ns]
+        if after and fix.confidence == 1.0:
+            pairs_seen = round(after[0].age_s * 10) + 1  # since birth, at 10 fps, gap included
+            assert after[0].confidence == pytest.approx((pairs_seen - 4) / pairs_seen)
+            return
+    pytest.fail("no track measured on every pair to compare with")
+
+
 def test_bad_pairs_are_counted_not_raised(akashi, monkeypatch) -> None:
     path, pairs = akashi
     pipeline = _pipeline(path)
