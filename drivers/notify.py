@@ -1,4 +1,5 @@
-"""Talking to systemd: READY=1, STATUS=..., WATCHDOG=1, STOPPING=1 (sd_notify(3)).
+"""Talking to systemd: READY=1, STATUS=..., WATCHDOG=1, STOPPING=1, RELOADING=1,
+EXTEND_TIMEOUT_USEC=... (sd_notify(3)).
 
 The unit runs with Type=notify and WatchdogSec: systemd waits for READY=1
 before it calls the service started, shows STATUS= in `systemctl status`,
@@ -11,6 +12,7 @@ for tests and the demo.
 from __future__ import annotations
 
 import os
+import time
 from abc import ABC, abstractmethod
 
 
@@ -32,6 +34,17 @@ class Notifier(ABC):
 
     def stopping(self, status: str = "") -> bool:
         return self.send("STOPPING=1" + (f"\nSTATUS={_one_line(status)}" if status else ""))
+
+    def reloading(self, status: str = "") -> bool:
+        """RELOADING=1 with the CLOCK_MONOTONIC time systemd needs to order it (systemd >= 253)."""
+        now_us = time.clock_gettime_ns(time.CLOCK_MONOTONIC) // 1000
+        extra = f"\nSTATUS={_one_line(status)}" if status else ""
+        return self.send(f"RELOADING=1\nMONOTONIC_USEC={now_us}{extra}")
+
+    def extend_timeout(self, seconds: float, status: str = "") -> bool:
+        """Ask for `seconds` more before systemd gives up on start-up (or stop)."""
+        usec = int(seconds * 1e6)
+        return self.send(f"EXTEND_TIMEOUT_USEC={usec}" + (f"\nSTATUS={_one_line(status)}" if status else ""))
 
     @staticmethod
     def watchdog_interval_s() -> float | None:

@@ -1,86 +1,58 @@
-"""The live appliance: frame-pair source -> Pipeline -> Outputs, with health and the watchdog.
+"""The live appliance: frame-pair source -> Pipeline -> Outputs, with health, the watchdog and reload.
 
-Threads (DESIGN.md): a capture thread reads the source into a one-slot
-queue where the newest pair wins (drops counted), so a slow step never backs
-up the cameras; a processing thread runs `Pipeline.step` and hands the fixes
-to `Outputs` (whose writers have their own threads); the caller's thread
-owns signals and the watchdog: it sends STATUS= every second and WATCHDOG=1
-only while no critical stage is STALLED.
+Threads (DESIGN.md): a capture thread reads the source into a one-slot queue where the newest
+pair wins (drops counted), so a slow step never backs up the cameras; a processing thread runs
+`Pipeline.step` and hands the fixes to `Outputs` (whose writers have their own threads); the
+caller's thread owns signals, sd_notify and the LEDs.
 
-`Appliance.build` does everything that can fail on a bad configuration
-(calibration, scenario, outputs) before any device is opened, raising
-`ConfigError`; faults after that are counted, logged and shown in health,
-never raised out of the loop.
+Lifecycle under systemd (Type=notify):
+- `Appliance.build` does everything that can fail on a bad configuration (calibration, scenario,
+  outputs) before any device is opened, raising `ConfigError` (exit 78).
+- READY=1 comes once the first pair has been processed; until then EXTEND_TIMEOUT_USEC keeps
+  systemd waiting while the cameras warm up, for at most READY_WAIT_S, after which the daemon
+  reports READY anyway and shows why it is DEGRADED (a unit that never starts is no use to a
+  technician reading its status).
+- WATCHDOG=1 at half WatchdogSec, only while every critical stage is fresh. A known fault (a
+  camera gone, a port gone) keeps the stages beating with a fault: DEGRADED, pings continue.
+  Only stuck code (a thread that stopped beating) stops them.
+- STATUS= carries one line: state, frame rate, ships and the worst fault.
+- SIGTERM: STOPPING=1, every live track sent once more as lost, outputs flushed and closed.
+- SIGHUP: the configuration file is loaded and checked first; a broken one is logged and the
+  daemon runs on. Otherwise RELOADING=1, the changed parts are swapped in between two pairs,
+  then READY=1. Cameras, pipeline and outputs are each rebuilt only if their configuration
+  changed, so a reload that leaves cameras and pipeline alone keeps every track and its number.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 from drivers.camera.base import FramePair, FramePairSource
-from drivers.camera.replay import ReplaySource
 from drivers.notify import Notifier
-from edge.config.app import AppConfig, ReplayCameras, VirtualCameras
-from edge.config.calibration import Calibration, recording_calibration
+from edge.config.app import AppConfig, load_config
 from edge.errors import ConfigError
-from edge.fix import ShipFix
-from edge.health import HealthMonitor, HealthState, standard_stages
+from edge.fix import ShipFix, TrackStatus
+from edge.health import HealthMonitor, HealthSnapshot, HealthState, standard_stages
+from edge.journal import MESSAGE_IDS, FaultLog
 from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Pipeline
-from edge.sim.scenario import load_scenario
-from edge.sim.simulator import live_source
+from edge.sources import SourcePlan, plan_source
 
 log = logging.getLogger(__name__)
 
 FixCallback = Callable[[int, Sequence[ShipFix]], None]  # (utc_ns, fixes) after each step
+HealthCallback = Callable[[HealthSnapshot], None]  # every main-loop tick (LEDs, the demo's table)
 STATUS_PERIOD_S = 1.0
 QUEUE_WAIT_S = 0.2
-
-
-@dataclass(frozen=True, slots=True)
-class SourcePlan:
-    """What the configured cameras are, checked before anything is opened."""
-
-    open: Callable[[], FramePairSource]
-    calibration: Calibration
-    fps: float
-    description: str
-    monotonic_stamps: bool  # pairs stamped on CLOCK_MONOTONIC (live); else a recording's own clock
-
-
-def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
-    """Resolve `cameras` and the calibration; ConfigError names the key on any problem."""
-    cams = config.cameras  # relative paths in it are already resolved against the config file
-    if isinstance(cams, VirtualCameras):
-        scenario = load_scenario(cams.scenario)
-        cal = config.calibration or scenario.spec.calibration
-        site = config.effective_site or scenario.spec.site or cal.site
-        return SourcePlan(lambda: live_source(scenario, cams.seed, cams.pace, cams.loop),
-                          Calibration(cal.rig, site), scenario.spec.fps,
-                          f"virtual scenario {cams.scenario!r} seed {cams.seed}", monotonic_stamps=cams.pace)
-    if isinstance(cams, ReplayCameras):
-        root = Path(cams.path)
-        try:
-            probe = ReplaySource(root)
-        except (OSError, ValueError) as exc:
-            raise ConfigError(config_file, "cameras.path", "a readable recording directory",
-                              f"{root}: {exc}") from exc
-        cal = config.calibration or recording_calibration(root, probe.meta)
-        site = config.effective_site or cal.site
-        fps = float(probe.meta.get("fps") or 0.0)
-        probe.close()
-        if not fps > 0:
-            raise ConfigError(root / "meta.yaml", "fps", "a positive frame rate", fps)
-        return SourcePlan(lambda: ReplaySource(root, pace=cams.pace, loop=cams.loop),
-                          Calibration(cal.rig, site), fps, f"recording {root}", monotonic_stamps=False)
-    raise ConfigError(config_file, "cameras.kind",
-                      "'virtual' or 'replay' (this build has no V4L2 capture driver yet)", cams.kind)
+READY_WAIT_S = 60.0  # longest wait for the first pair before READY=1 is sent anyway
+EXTEND_S = 5.0  # each EXTEND_TIMEOUT_USEC while waiting for the first pair
+JOIN_S = 0.5  # per thread at shutdown (a camera blocked mid-frame is left behind): exit within 2 s
 
 
 class _Latest:
@@ -112,47 +84,75 @@ class _Latest:
             return None if pair is None else (pair, self.put_ns)
 
 
+def _plan(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
+    plan = plan_source(config, config_file)
+    if plan.calibration.site is None:
+        raise ConfigError(config_file, "site", "a site (lat_deg, lon_deg, height_m, heading_deg)")
+    return plan
+
+
+def _health(config: AppConfig, extra_nmea: bool) -> HealthMonitor:
+    stages = standard_stages(output_stages(config.outputs, extra_nmea=extra_nmea),
+                             stall_after_s=config.health.stale_s)
+    return HealthMonitor(stages, min_rate_hz=config.health.min_fps or None)
+
+
 class Appliance:
     """Everything the daemon runs; `build` first, then `run`."""
 
-    def __init__(self, plan: SourcePlan, pipeline: Pipeline, outputs: Outputs, health: HealthMonitor,
-                 notifier: Notifier, on_fixes: FixCallback | None = None) -> None:
-        self.plan, self.pipeline, self.outputs = plan, pipeline, outputs
-        self.health, self.notifier, self.on_fixes = health, notifier, on_fixes
+    def __init__(self, config: AppConfig, config_file: str | Path | None, plan: SourcePlan,
+                 pipeline: Pipeline, outputs: Outputs, health: HealthMonitor, notifier: Notifier,
+                 on_fixes: FixCallback | None = None, extra_nmea: Sequence[NmeaStreamOutput] = ()) -> None:
+        self.config, self.config_file, self.plan = config, config_file, plan
+        self.pipeline, self.outputs, self.health = pipeline, outputs, health
+        self.notifier, self.on_fixes, self.extra_nmea = notifier, on_fixes, tuple(extra_nmea)
+        self.on_health: HealthCallback | None = None
         self.queue = _Latest()
         self.source: FramePairSource | None = None
         self.capture_errors = 0
         self.steps = 0
         self.live_fixes = 0
+        self.last_fixes: list[ShipFix] = []
+        self.reloads = 0
+        self.reload_error: str | None = None
+        self.faults = FaultLog(log)
+        self._step_lock = threading.Lock()  # held by one step + publish; a reload swaps between steps
+        self._capture_thread: threading.Thread | None = None
+        self._capture_stop = threading.Event()
 
     @classmethod
     def build(cls, config: AppConfig, config_file: str | Path | None, notifier: Notifier,
               on_fixes: FixCallback | None = None,
               extra_nmea: Sequence[NmeaStreamOutput] = ()) -> Appliance:
-        plan = plan_source(config, config_file)
-        if plan.calibration.site is None:
-            raise ConfigError(config_file, "site", "a site (lat_deg, lon_deg, height_m, heading_deg)")
+        plan = _plan(config, config_file)
+        health = _health(config, bool(extra_nmea))
+        return cls(config, config_file, plan, cls._pipeline(config, plan), cls._outputs(config, plan, health,
+                   extra_nmea), health, notifier, on_fixes, extra_nmea)
+
+    @staticmethod
+    def _pipeline(config: AppConfig, plan: SourcePlan) -> Pipeline:
         # live pairs are stamped on CLOCK_MONOTONIC; a recording's clock is anchored at its first pair
         utc_offset_ns = time.time_ns() - time.monotonic_ns() if plan.monotonic_stamps else 0
-        pipeline = Pipeline(plan.calibration, config.pipeline, fps=plan.fps, utc_offset_ns=utc_offset_ns)
-        health = HealthMonitor(standard_stages(output_stages(config.outputs, extra_nmea=bool(extra_nmea))))
+        return Pipeline(plan.calibration, config.pipeline, fps=plan.fps, utc_offset_ns=utc_offset_ns)
+
+    @staticmethod
+    def _outputs(config: AppConfig, plan: SourcePlan, health: HealthMonitor,
+                 extra_nmea: Sequence[NmeaStreamOutput]) -> Outputs:
         site = plan.calibration.site
+        assert site is not None  # build() refuses a plan without a site
         outputs = Outputs.from_config(config.outputs, health, max_tracks=config.pipeline.max_tracks,
                                       site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg)
         for stream in extra_nmea:
             outputs.add(stream)
-        return cls(plan, pipeline, outputs, health, notifier, on_fixes)
+        return outputs
 
     # ------------------------------------------------------------------ threads
-    def _capture(self, stop: threading.Event) -> None:
-        assert self.source is not None
+    def _capture(self, source: FramePairSource, stop: threading.Event) -> None:
         while not stop.is_set():
             try:
-                pair = self.source.read()
-            except Exception as exc:  # a camera fault: count, log once, keep trying
+                pair = source.read()
+            except Exception as exc:  # a camera fault: count, show in health, keep trying
                 self.capture_errors += 1
-                if self.capture_errors == 1:
-                    log.error("camera source failed: %s (retrying)", exc)
                 for stage in ("camera_left", "camera_right"):
                     self.health.beat(stage, fault=f"capture error: {exc}")
                 stop.wait(1.0)
@@ -162,7 +162,8 @@ class Appliance:
             self.health.beat("camera_left", frames=1)
             self.health.beat("camera_right", frames=1)
             self.queue.put(pair)
-        self.queue.end()
+        if not stop.is_set():  # the source ended (a finite recording), not stopped or reloaded
+            self.queue.end()
 
     def _process(self, stop: threading.Event) -> None:
         while not stop.is_set():
@@ -170,55 +171,143 @@ class Appliance:
             if got is None:
                 if self.queue.ended:
                     break
+                self.health.beat("processing")  # idle but alive: waiting for pairs is not stuck
                 continue
-            pair, captured_ns = got
-            if self.steps == 0 and not self.plan.monotonic_stamps:  # UTC of a recording: now, onwards
-                self.pipeline.utc_offset_ns = time.time_ns() - pair.t_ns
-            fixes = self.pipeline.step(pair)
-            self.steps, self.live_fixes = self.steps + 1, len(fixes)
-            latency_s = (time.monotonic_ns() - captured_ns) / 1e9  # capture to outputs
-            self.health.beat("processing", frames=1, latency_s=latency_s,
-                             counters={"dropped_pairs": self.queue.dropped,
-                                       "failed_pairs": self.pipeline.counters.failed})
-            utc_ns = pair.t_ns + self.pipeline.utc_offset_ns
-            self.outputs.publish(fixes, utc_ns)
-            if self.on_fixes is not None:
-                self.on_fixes(utc_ns, fixes)
+            with self._step_lock:
+                self._step(*got)
+
+    def _step(self, pair: FramePair, captured_ns: int) -> None:
+        if self.steps == 0 and not self.plan.monotonic_stamps:  # UTC of a recording: now, onwards
+            self.pipeline.utc_offset_ns = time.time_ns() - pair.t_ns
+        fixes = self.pipeline.step(pair)
+        self.live_fixes, self.last_fixes = len(fixes), fixes
+        latency_s = (time.monotonic_ns() - captured_ns) / 1e9  # capture to outputs
+        self.health.beat("processing", frames=1, latency_s=latency_s,
+                         counters={"dropped_pairs": self.queue.dropped,
+                                   "failed_pairs": self.pipeline.counters.failed})
+        utc_ns = pair.t_ns + self.pipeline.utc_offset_ns
+        self.outputs.publish(fixes, utc_ns)
+        if self.on_fixes is not None:
+            self.on_fixes(utc_ns, fixes)
+        self.steps += 1  # after publishing: READY=1 waits for the first pair to reach the outputs
+
+    def _start_capture(self) -> None:
+        self._capture_stop = threading.Event()
+        self.source = self.plan.open()
+        self._capture_thread = threading.Thread(target=self._capture, args=(self.source, self._capture_stop),
+                                                name="capture", daemon=True)
+        self._capture_thread.start()
+
+    def _stop_capture(self) -> None:
+        self._capture_stop.set()
+        if self.source is not None:
+            self.source.close()
+        if self._capture_thread is not None:
+            self._capture_thread.join(timeout=JOIN_S / 2)
 
     # ------------------------------------------------------------------ main
-    def run(self, stop: threading.Event, seconds: float | None = None) -> int:
-        """Run until `stop` is set, the source ends, or `seconds` pass; returns an exit status."""
-        self.source = self.plan.open()
+    def run(self, stop: threading.Event, seconds: float | None = None,
+            reload: threading.Event | None = None) -> int:
+        """Run until `stop` is set, the source ends, or `seconds` pass; `reload` set asks for a
+        reload of the configuration file. Returns an exit status."""
         self.outputs.start()
-        threads = [threading.Thread(target=self._capture, args=(stop,), name="capture", daemon=True),
-                   threading.Thread(target=self._process, args=(stop,), name="processing", daemon=True)]
-        for t in threads:
-            t.start()
-        self.notifier.ready(f"running: {self.plan.description}")
+        self._start_capture()
+        processing = threading.Thread(target=self._process, args=(stop,), name="processing", daemon=True)
+        processing.start()
         log.info("running: %s", self.plan.description)
         period_s = min(STATUS_PERIOD_S, self.notifier.watchdog_interval_s() or STATUS_PERIOD_S)
-        deadline = None if seconds is None else time.monotonic() + seconds
+        start_s = time.monotonic()
+        deadline = None if seconds is None else start_s + seconds
+        ready = False
         try:
-            while not stop.is_set() and threads[1].is_alive():
-                if deadline is not None and time.monotonic() >= deadline:
+            while not stop.is_set() and processing.is_alive():
+                now_s = time.monotonic()
+                if deadline is not None and now_s >= deadline:
                     break
-                self._report()
+                if reload is not None and reload.is_set():
+                    reload.clear()
+                    self.reload()
+                snap = self.health.snapshot()
+                if not ready and (self.steps > 0 or now_s - start_s >= READY_WAIT_S or self.queue.ended):
+                    ready = True
+                    self.notifier.ready(self.status_line(snap))
+                elif not ready:
+                    self.notifier.extend_timeout(EXTEND_S, "starting: waiting for the first frame pair")
+                self._report(snap, ready)
                 stop.wait(period_s)
         finally:
             stop.set()
             self.notifier.stopping("stopping")
-            self.source.close()
-            for t in threads:
-                t.join(timeout=5.0)
+            self._stop_capture()
+            processing.join(timeout=JOIN_S)
+            self._send_lost()
             self.outputs.close()
         return 0
 
-    def _report(self) -> None:
-        snap = self.health.snapshot()
+    def status_line(self, snap: HealthSnapshot) -> str:
         rate = f"{snap.frame_rate_hz:.1f} fps" if snap.frame_rate_hz is not None else "no frames yet"
         text = f"{snap.state.value}: {rate}, {self.live_fixes} ships"
         if snap.reason:
             text += f"; {snap.reason}"
-        self.notifier.status(text)
-        if snap.state is not HealthState.STALLED:
+        if self.reload_error:
+            text += f"; reload refused: {self.reload_error}"
+        return text
+
+    def _report(self, snap: HealthSnapshot, ready: bool) -> None:
+        self.faults.observe(snap)
+        if ready:
+            self.notifier.status(self.status_line(snap))
+        watched = self.notifier.watchdog_interval_s() is not None  # WatchdogSec set, and for our pid
+        if watched and self.config.health.watchdog and snap.state is not HealthState.STALLED:
             self.notifier.watchdog()
+        if self.on_health is not None:
+            self.on_health(snap)
+
+    def _send_lost(self) -> None:
+        """Every live track once more with status L, so receivers drop them now, not at a time-out."""
+        lost = [dataclasses.replace(f, status=TrackStatus.LOST) for f in self.last_fixes
+                if f.status is not TrackStatus.LOST]
+        if lost:
+            try:
+                self.outputs.publish(lost, time.time_ns())
+            except Exception as exc:  # shutting down: report, never hang or raise
+                log.warning("could not send the lost tracks at shutdown: %s", exc)
+
+    # ------------------------------------------------------------------ reload
+    def reload(self) -> bool:
+        """Re-read the configuration file; swap in what changed. False (and logged) if it is invalid."""
+        if self.config_file is None:
+            return False
+        try:
+            config = load_config(self.config_file)
+            plan = _plan(config, self.config_file)
+            health = _health(config, bool(self.extra_nmea))
+            outputs = self._outputs(config, plan, health, self.extra_nmea) \
+                if (config.outputs, config.health) != (self.config.outputs, self.config.health) else None
+        except ConfigError as exc:
+            self.reload_error = str(exc)
+            log.error("reload refused, running on the previous configuration: %s", exc,
+                      extra={"MESSAGE_ID": MESSAGE_IDS["reload_refused"]})
+            return False
+        self.notifier.reloading("reloading the configuration")
+        old, cameras_changed = self.config, config.cameras != self.config.cameras
+        with self._step_lock:
+            logging.getLogger().setLevel(config.logging.level)
+            if cameras_changed:
+                self._stop_capture()
+            if cameras_changed or (old.calibration, old.site, old.pipeline) != \
+                    (config.calibration, config.site, config.pipeline):
+                self.pipeline, self.steps, self.last_fixes = self._pipeline(config, plan), 0, []
+            if outputs is not None:
+                self.outputs.close()
+                self.outputs, self.health = outputs, health
+                self.outputs.start()
+                self.outputs.publish(self.last_fixes, time.time_ns())  # new ports serve at once
+            self.config, self.plan, self.reload_error = config, plan, None
+            if cameras_changed:
+                self._start_capture()
+        self.reloads += 1
+        log.info("configuration reloaded from %s", self.config_file,
+                 extra={"MESSAGE_ID": MESSAGE_IDS["reload"]})
+        self.notifier.ready(self.status_line(self.health.snapshot()))
+        return True

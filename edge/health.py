@@ -10,8 +10,8 @@ sd_notify (WATCHDOG=1 only while the state is not STALLED).
 
 Rules (a stage is *fresh* when its last beat is younger than `stall_after_s`):
 - STALLED: a critical stage is not fresh (or has never beaten);
-- DEGRADED: every critical stage is fresh, but some stage reports a fault or a
-  non-critical stage (an output) is not fresh;
+- DEGRADED: every critical stage is fresh, but some stage reports a fault, a
+  non-critical stage (an output) is not fresh, or the frame rate is below `min_rate_hz`;
 - OK: every stage is fresh and fault-free.
 The worst problem gives the reason and the fault code `10 * stage.code + kind`
 (kind 1 = no heartbeat, 2 = fault reported), so a PLC shows e.g. 32 for
@@ -64,19 +64,21 @@ class Stage:
     critical: bool = True  # not fresh -> STALLED (else DEGRADED)
 
 
-def standard_stages(outputs: Iterable[tuple[str, Status]] = ()) -> tuple[Stage, ...]:
+def standard_stages(outputs: Iterable[tuple[str, Status]] = (), *, stall_after_s: float = 2.0
+                    ) -> tuple[Stage, ...]:
     """The appliance's stages: both cameras, processing, then one per output.
 
     `outputs` gives (name, status bit) per output, e.g. ("nmea", Status.NMEA_ACTIVE);
-    outputs are non-critical and get codes 4, 5, ...
+    outputs are non-critical and get codes 4, 5, ... `stall_after_s` (`health.stale_s`) is how
+    long a critical stage may stay silent; outputs get at least 5 s (they beat once per step).
     """
     stages = [
-        Stage("camera_left", 1, 2.0, Status.CAMERA_LEFT),
-        Stage("camera_right", 2, 2.0, Status.CAMERA_RIGHT),
-        Stage("processing", 3, 2.0, Status.TRACKER_RUNNING),
+        Stage("camera_left", 1, stall_after_s, Status.CAMERA_LEFT),
+        Stage("camera_right", 2, stall_after_s, Status.CAMERA_RIGHT),
+        Stage("processing", 3, stall_after_s, Status.TRACKER_RUNNING),
     ]
     for i, (name, bits) in enumerate(outputs):
-        stages.append(Stage(name, 4 + i, 5.0, bits, critical=False))
+        stages.append(Stage(name, 4 + i, max(5.0, stall_after_s), bits, critical=False))
     return tuple(stages)
 
 
@@ -119,9 +121,11 @@ class HealthMonitor:
         *,
         rate_stage: str = "processing",
         rate_window_s: float = 2.0,
+        min_rate_hz: float | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self._stages = tuple(stages)
+        self._min_rate_hz = min_rate_hz  # `health.min_fps`: a slower frame rate is DEGRADED
         names = [s.name for s in self._stages]
         if len(set(names)) != len(names):
             raise ValueError(f"stage names must be unique: {names}")
@@ -191,6 +195,9 @@ class HealthMonitor:
                 else HealthState.DEGRADED
             if _rank(severity) > _rank(state):
                 state, reason, code = severity, f"{stage.name}: {text}", 10 * stage.code + kind
+        slow = self._slow(rate, now)
+        if slow is not None and state is HealthState.OK:
+            state, reason, code = HealthState.DEGRADED, slow, 10 * self._rate_code() + FAULT_KIND_REPORTED
         flags |= {HealthState.OK: Status.OK, HealthState.DEGRADED: Status.DEGRADED,
                   HealthState.STALLED: Status.FAULT}[state]
         return HealthSnapshot(
@@ -203,6 +210,16 @@ class HealthMonitor:
             uptime_s=now - self._start_s,
             stages=tuple(views),
         )
+
+    def _slow(self, rate: float | None, now: float) -> str | None:
+        """Why the frame rate is too low, once the rate window has been filled since start."""
+        if self._min_rate_hz is None or rate is None or now - self._start_s < self._rate_window_s:
+            return None
+        return f"{self._rate_stage}: {rate:.1f} fps, below {self._min_rate_hz:g}" \
+            if rate < self._min_rate_hz else None
+
+    def _rate_code(self) -> int:
+        return next(s.code for s in self._stages if s.name == self._rate_stage)
 
     def _view(self, stage: Stage, b: _Beat, now: float) -> StageHealth:
         age = None if b.t_s is None else now - b.t_s

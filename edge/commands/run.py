@@ -3,9 +3,10 @@
 Loads and checks the configuration, calibration and outputs before opening
 any device (a mistake exits 78 with one line naming file and key), then runs
 `edge.daemon.Appliance` until SIGTERM/SIGINT, the end of a finite source, or
-`--seconds`. READY=1, STATUS=, WATCHDOG=1 and STOPPING=1 go to systemd when
-$NOTIFY_SOCKET is set. `--print-nmea` also writes the NMEA sentences to
-stdout (the demo uses it).
+`--seconds`; SIGHUP reloads the configuration file (`systemctl reload`). READY=1,
+STATUS=, WATCHDOG=1, RELOADING=1 and STOPPING=1 go to systemd when $NOTIFY_SOCKET is
+set; under systemd the log goes to the journal as structured records. `--print-nmea`
+also writes the NMEA sentences to stdout (the demo uses it).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import threading
 from drivers.notify import SystemdNotifier
 from edge.config.app import load_config
 from edge.daemon import Appliance
+from edge.journal import setup_logging
 from edge.outputs.nmea_stream import NmeaStreamOutput
 
 
@@ -30,14 +32,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.config)
-    logging.basicConfig(level=config.logging.level, stream=sys.stderr,
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    setup_logging(config.logging.level)
     extra = [NmeaStreamOutput(sys.stdout)] if args.print_nmea else []
     appliance = Appliance.build(config, args.config, SystemdNotifier(), extra_nmea=extra)
-    stop = threading.Event()
+    stop, reload = threading.Event(), threading.Event()
     for signum in (signal.SIGTERM, signal.SIGINT):
         signal.signal(signum, lambda *_: stop.set())
-    status = appliance.run(stop, args.seconds)
+    signal.signal(signal.SIGHUP, lambda *_: reload.set())
+    status = appliance.run(stop, args.seconds, reload)
     c = appliance.pipeline.counters
     logging.getLogger("mast-stereo").info(
         "stopped: %d pairs processed, %d dropped before processing, %d bad, %d failed, %d fixes",

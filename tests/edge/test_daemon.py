@@ -8,9 +8,12 @@ the VTS's part with mbpoll against the Modbus TCP port.
 from __future__ import annotations
 
 import datetime
+import io
+import logging
 import os
 import re
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -21,6 +24,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from edge.config.app import load_config
+from edge.daemon import Appliance
 from edge.errors import EX_CONFIG
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -40,62 +45,143 @@ def start(config: Path, *extra: str, env: dict | None = None) -> subprocess.Pope
 
 def write_config(tmp_path: Path, port: int) -> Path:
     cfg = {"cameras": {"kind": "virtual", "scenario": "akashi-crossing", "seed": 3, "pace": True},
-           "outputs": {"modbus": {"tcp": {"enabled": True, "host": "127.0.0.1", "port": port}}}}
+           "outputs": {"modbus": {"tcp": {"enabled": True, "host": "127.0.0.1", "port": port}}},
+           # the simulator renders live on a shared 2-core machine: give a slow frame 10 s before it
+           # counts as a stuck camera (which would rightly stop the watchdog)
+           "health": {"stale_s": 10.0, "min_fps": 0.0}}
     path = tmp_path / "live.yaml"
     path.write_text(yaml.safe_dump(cfg))
     return path
 
 
-@pytest.mark.skipif(not shutil.which("mbpoll"), reason="needs mbpoll (tools/test installs it)")
-def test_daemon_notifies_systemd_and_serves_modbus_while_running(tmp_path: Path) -> None:
-    notify = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-    notify_path = str(tmp_path / "notify.sock")
-    notify.bind(notify_path)
-    notify.settimeout(1.0)
-    messages: list[str] = []
-    done = threading.Event()
+class NotifySocket:
+    """systemd's side of sd_notify: an AF_UNIX datagram socket read all the time (so the daemon never
+    blocks on a full queue), every message kept with its CLOCK_MONOTONIC arrival time."""
 
-    def drain() -> None:  # like PID 1: always reading, so sd_notify never blocks on a full queue
-        while not done.is_set():
+    def __init__(self, path: Path) -> None:
+        self.path = str(path)
+        self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        self.sock.bind(self.path)
+        self.sock.settimeout(0.2)
+        self.messages: list[tuple[float, str]] = []
+        self._done = threading.Event()
+        self._reader = threading.Thread(target=self._drain, daemon=True)
+        self._reader.start()
+
+    def _drain(self) -> None:
+        while not self._done.is_set():
             try:
-                messages.append(notify.recv(4096).decode())
+                self.messages.append((time.monotonic(), self.sock.recv(4096).decode()))
             except TimeoutError:
                 pass
 
-    reader = threading.Thread(target=drain, daemon=True)
-    reader.start()
+    def wait_for(self, prefix: str, timeout_s: float = 60.0, after: int = 0) -> int:
+        """Index of the first message starting with `prefix` at or after index `after`."""
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            for k, (_, m) in enumerate(self.messages[after:], after):
+                if m.startswith(prefix):
+                    return k
+            time.sleep(0.05)
+        raise AssertionError(f"no {prefix!r} in {[m for _, m in self.messages]}")
+
+    def times(self, prefix: str) -> list[float]:
+        return [t for t, m in self.messages if m.startswith(prefix)]
+
+    def close(self) -> None:
+        self._done.set()
+        self._reader.join()
+        self.sock.close()
+
+
+@pytest.fixture
+def notify(tmp_path: Path):
+    sock = NotifySocket(tmp_path / "notify.sock")
+    yield sock
+    sock.close()
+
+
+def mbpoll(port: int, start: int = 0, count: int = 30) -> dict[int, int]:
+    """libmodbus's client reads holding registers (FC3) from the daemon."""
+    out = subprocess.run(["mbpoll", "-m", "tcp", "-p", str(port), "-a", "1", "-0", "-1", "-t", "3",
+                          "-r", str(start), "-c", str(count), "127.0.0.1"],
+                         capture_output=True, text=True, timeout=10)
+    assert out.returncode == 0, out.stdout + out.stderr
+    return {int(a): int(v) for a, v in re.findall(r"\[(\d+)\]:\s+(-?\d+)", out.stdout)}
+
+
+@pytest.mark.skipif(not shutil.which("mbpoll"), reason="needs mbpoll (tools/test installs it)")
+def test_daemon_lifecycle_under_a_real_notify_socket(tmp_path: Path, notify: NotifySocket) -> None:
+    """READY only after the first processed pair (the register image has been published by then),
+    WATCHDOG=1 at half WATCHDOG_USEC, Modbus answering, and SIGTERM: STOPPING=1, every live track
+    sent as lost, exit 0 within 2 s."""
     port = free_port()
-    proc = start(write_config(tmp_path, port), "--seconds", "12", "--print-nmea",
-                 env={"NOTIFY_SOCKET": notify_path, "WATCHDOG_USEC": "2000000"})
+    proc = start(write_config(tmp_path, port), "--print-nmea",
+                 env={"NOTIFY_SOCKET": notify.path, "WATCHDOG_USEC": "2000000"})
     try:
-        end = time.monotonic() + 60
-        while not any("WATCHDOG=1" in m for m in messages) and time.monotonic() < end:
-            time.sleep(0.1)
-        assert messages and messages[0].startswith("READY=1"), messages
-        # mbpoll (libmodbus) reads identity and health: probe, map version, update counter advancing
-        reads = []
-        for _ in range(2):
-            out = subprocess.run(["mbpoll", "-m", "tcp", "-p", str(port), "-a", "1", "-0", "-1", "-t", "3",
-                                  "-r", "0", "-c", "30", "127.0.0.1"],
-                                 capture_output=True, text=True, timeout=10)
-            assert out.returncode == 0, out.stdout + out.stderr
-            reads.append({int(a): int(v) for a, v in re.findall(r"\[(\d+)\]:\s+(-?\d+)", out.stdout)})
-            time.sleep(1.5)
-        assert reads[0][0] == 1  # MAP_VERSION
-        assert (reads[0][4], reads[0][5]) == (0x1234, 0x5678)  # probe, high word first
-        assert reads[1][27] != reads[0][27]  # UPDATE_COUNTER moves while processing runs
-        stdout, stderr = proc.communicate(timeout=60)
+        ready = notify.wait_for("READY=1")
+        before = [m for _, m in notify.messages[:ready]]
+        assert all(m.startswith(("EXTEND_TIMEOUT_USEC=", "WATCHDOG=1")) for m in before), before
+        first = mbpoll(port)
+        assert first[0] == 1 and (first[4], first[5]) == (0x1234, 0x5678)  # map version, probe
+        assert first[27] >= 1  # UPDATE_COUNTER: the first pair was processed and published before READY
+        lines: list[str] = []
+        threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True).start()  # type: ignore[arg-type]
+        end = time.monotonic() + 90
+        while not any(re.match(r"^\$RATTM,(?:[^,]*,){11}T,", ln) for ln in lines) and time.monotonic() < end:
+            time.sleep(0.2)
+        second = mbpoll(port)
+        assert second[27] != first[27]  # the counter moves while processing runs
+        pings = notify.times("WATCHDOG=1")
+        gaps = [b - a for a, b in zip(pings, pings[1:], strict=False)]
+        assert len(gaps) >= 4 and 0.5 < sorted(gaps)[len(gaps) // 2] < 1.5, gaps  # half of 2 s
+        assert any(m.startswith("STATUS=OK") or m.startswith("STATUS=DEGRADED")
+                   for _, m in notify.messages[ready:])
+        proc.send_signal(signal.SIGTERM)
+        sent_s = time.monotonic()
+        proc.wait(timeout=10)
+        gone_s = time.monotonic() - sent_s
+        stderr = proc.stderr.read()  # type: ignore[union-attr]
+        time.sleep(0.3)
+        stdout = "".join(lines)
         assert proc.returncode == 0, stderr
-        time.sleep(1.5)  # let the reader take the last datagrams
-        assert any(m.startswith("STATUS=") for m in messages)
-        assert messages[-1].startswith("STOPPING=1")
-        assert re.search(r"^\$RATTM,\d\d,", stdout, re.M), stdout[-2000:]
+        assert gone_s < 2.0, f"exit took {gone_s:.2f} s"
+        notify.wait_for("STOPPING=1", timeout_s=2.0)
+        ttm = re.findall(r"^\$RATTM,(\d\d),(?:[^,]*,){10}([QTL]),", stdout, re.M)
+        assert ttm, stdout[-2000:]
+        last_status = {number: status for number, status in ttm}
+        assert set(last_status.values()) == {"L"}, last_status  # every track's last word: lost
         assert_utc_is_now(stdout)
     finally:
         proc.kill()
-        done.set()
-        reader.join()
-        notify.close()
+
+
+@pytest.mark.skipif(not shutil.which("mbpoll"), reason="needs mbpoll (tools/test installs it)")
+def test_sighup_keeps_a_broken_config_out_and_applies_a_valid_one(tmp_path: Path,
+                                                                  notify: NotifySocket) -> None:
+    port, new_port = free_port(), free_port()
+    config = write_config(tmp_path, port)
+    proc = start(config, env={"NOTIFY_SOCKET": notify.path})
+    try:
+        ready = notify.wait_for("READY=1")
+        config.write_text("outputs: {modbus: {tcp: {port: not-a-port}}}\n")
+        proc.send_signal(signal.SIGHUP)
+        time.sleep(3.0)
+        assert proc.poll() is None
+        assert not any(m.startswith("RELOADING=1") for _, m in notify.messages)
+        assert any("reload refused" in m for _, m in notify.messages[ready:])  # in STATUS
+        assert mbpoll(port)[0] == 1  # still serving on the old configuration
+        write_config(tmp_path, new_port)
+        proc.send_signal(signal.SIGHUP)
+        reloading = notify.wait_for("RELOADING=1", timeout_s=20.0)
+        assert re.search(r"MONOTONIC_USEC=\d+", notify.messages[reloading][1])
+        notify.wait_for("READY=1", timeout_s=20.0, after=reloading)
+        assert mbpoll(new_port)[0] == 1  # the new port serves
+        proc.send_signal(signal.SIGTERM)
+        _, stderr = proc.communicate(timeout=10)
+        assert proc.returncode == 0 and "reload refused" in stderr and "not-a-port" in stderr, stderr
+    finally:
+        proc.kill()
 
 
 def assert_utc_is_now(nmea: str) -> None:
@@ -148,3 +234,83 @@ def test_capture_queue_keeps_the_newest_pair_and_counts_drops() -> None:
     assert q.get(0.01) is None and not q.ended
     q.end()
     assert q.get(1.0) is None and q.ended
+
+
+def _replay_config(root: Path, **health: float) -> dict:
+    """A recording looped at its own pace, no Modbus port."""
+    return {"cameras": {"kind": "replay", "path": str(root), "pace": True, "loop": True},
+            "outputs": {"modbus": {"tcp": {"enabled": False}}}, "health": {"min_fps": 0.0, **health}}
+
+
+def _replay_appliance(tmp_path: Path, root: Path, notifier, **health: float) -> Appliance:
+    path = tmp_path / "appliance.yaml"
+    path.write_text(yaml.safe_dump(_replay_config(root, **health)))
+    return Appliance.build(load_config(path), path, notifier)
+
+
+def test_watchdog_stops_within_one_interval_when_processing_hangs(tmp_path: Path, recording, notify,
+                                                                  monkeypatch) -> None:
+    """A real NOTIFY_SOCKET and WATCHDOG_USEC=1 s (pings every 0.5 s): once a step hangs, the pings
+    stop after the stage goes stale (stale_s) plus at most one interval; systemd would restart."""
+    from drivers.notify import SystemdNotifier
+
+    monkeypatch.setenv("NOTIFY_SOCKET", notify.path)
+    monkeypatch.setenv("WATCHDOG_USEC", "1000000")
+    monkeypatch.delenv("WATCHDOG_PID", raising=False)
+    app = _replay_appliance(tmp_path, recording("akashi-crossing", 30), SystemdNotifier(), stale_s=1.0)
+    hang, hung_at = threading.Event(), []
+    real_step = app.pipeline.step
+
+    def step(pair):
+        if hang.is_set():
+            hung_at.append(time.monotonic())
+            threading.Event().wait(30.0)  # stuck code
+        return real_step(pair)
+
+    app.pipeline.step = step  # type: ignore[method-assign]
+    stop = threading.Event()
+    runner = threading.Thread(target=app.run, args=(stop,), daemon=True)
+    runner.start()
+    try:
+        notify.wait_for("READY=1")
+        time.sleep(2.0)
+        hang.set()
+        time.sleep(4.0)
+        pings = notify.times("WATCHDOG=1")
+        assert hung_at and len([t for t in pings if t < hung_at[0]]) >= 3
+        assert pings[-1] <= hung_at[0] + 1.0 + 0.5 + 0.3, (pings[-1] - hung_at[0])
+    finally:
+        stop.set()
+        runner.join(timeout=5.0)
+
+
+def test_reload_without_camera_or_pipeline_change_keeps_tracks_and_numbers(tmp_path: Path, recording) -> None:
+    from drivers.notify import VirtualNotifier
+    from edge.outputs.nmea_stream import NmeaStreamOutput
+
+    notifier = VirtualNotifier()
+    base = _replay_config(recording("akashi-crossing", 30))
+    path = tmp_path / "appliance.yaml"
+    path.write_text(yaml.safe_dump(base))
+    stream = NmeaStreamOutput(io.StringIO())
+    app = Appliance.build(load_config(path), path, notifier, extra_nmea=[stream])
+    stop = threading.Event()
+    runner = threading.Thread(target=app.run, args=(stop,), daemon=True)
+    runner.start()
+    try:
+        end = time.monotonic() + 60
+        while not stream.scheduler.numbers.number_of(1) and time.monotonic() < end:
+            time.sleep(0.1)
+        pipeline, number = app.pipeline, stream.scheduler.numbers.number_of(1)
+        assert number is not None
+        path.write_text(yaml.safe_dump({**base, "logging": {"level": "DEBUG"}}))
+        assert app.reload()
+        assert app.pipeline is pipeline and stream.scheduler.numbers.number_of(1) == number
+        assert logging.getLogger().level == logging.DEBUG
+        path.write_text(yaml.safe_dump({**base, "pipeline": {"window": 21}}))
+        assert app.reload() and app.pipeline is not pipeline  # new matching settings: tracks restart
+        assert any(m.startswith("RELOADING=1\nMONOTONIC_USEC=") for m in notifier.messages)
+    finally:
+        stop.set()
+        runner.join(timeout=5.0)
+        logging.getLogger().setLevel(logging.WARNING)
