@@ -23,6 +23,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "check-config": ("edge.commands.check_config", "load a configuration/calibration and print a summary"),
     "simulate": ("edge.commands.simulate", "render a stereo sea scene with ground truth to a recording"),
     "replay": ("edge.commands.replay", "run the pipeline over a recording: NMEA and a per-fix CSV"),
+    "selftest": ("edge.commands.selftest", "the technician's checks: PASS/FAIL table, exit = failures"),
 }
 
 

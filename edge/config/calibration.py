@@ -176,7 +176,7 @@ def calibration_ref(value: Any, file: str | Path | None, key: str) -> Calibratio
         try:
             return load_calibration(path)
         except ConfigError as exc:
-            if exc.key:  # a mistake inside the calibration file: that file and key are the news
+            if exc.key or path.is_file():  # a mistake inside the calibration file: that file is the news
                 raise
             found = f"{path}: {exc.found}" if exc.found is not None else str(path)
             raise ConfigError(file, key, f"a calibration file ({exc.expected})", found) from None

@@ -1,0 +1,102 @@
+"""selftest: passes on the virtual drivers, fails naming the check (exit = failures) on a corrupt
+calibration, an unsynchronised clock or a taken port, and reads a running daemon's health block."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import yaml
+from helpers import run_cli
+
+from drivers.clock import VirtualClock
+from edge.selftest import FAIL, PASS, Selftest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def write_config(tmp_path: Path, port: int, **extra: object) -> Path:
+    calibration = tmp_path / "calibration.yaml"
+    calibration.write_text((ROOT / "config/calibration/akashi-pinhole.yaml").read_text())
+    cfg = {"cameras": {"kind": "virtual", "scenario": "akashi-crossing", "seed": 1, "pace": True},
+           "calibration": str(calibration),
+           "outputs": {"modbus": {"tcp": {"enabled": True, "host": "127.0.0.1", "port": port}}},
+           "health": {"require_clock_sync": False, "stale_s": 10.0, "min_fps": 0.0}, **extra}
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    return path
+
+
+def results(stdout: str) -> dict[str, str]:
+    return {c["name"]: c["result"] for c in json.loads(stdout)["checks"]}
+
+
+def test_selftest_passes_on_the_virtual_drivers(tmp_path: Path) -> None:
+    started = time.monotonic()
+    out = run_cli("selftest", "--config", write_config(tmp_path, free_port()), "--json")
+    assert out.returncode == 0, out.stdout + out.stderr
+    got = results(out.stdout)
+    for name in ("configuration", "calibration", "cameras", "core known answer", "modbus port", "disk"):
+        assert got[name] == PASS, got
+    assert got["daemon"] == "SKIP"  # nothing answers on the port
+    assert time.monotonic() - started < 30.0
+
+
+def test_a_corrupt_calibration_fails_one_check_by_name(tmp_path: Path) -> None:
+    path = write_config(tmp_path, free_port())
+    (tmp_path / "calibration.yaml").write_text("baseline_m: [not, a, number\n")
+    out = run_cli("selftest", "--config", path)
+    assert out.returncode == 1, out.stdout + out.stderr
+    failed = [line for line in out.stdout.splitlines() if " FAIL " in line]
+    assert len(failed) == 1 and failed[0].startswith("calibration"), out.stdout
+    assert "calibration.yaml" in failed[0] and "Traceback" not in out.stdout + out.stderr
+
+
+def test_unsynchronised_clock_and_taken_port_are_failures_with_hints(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        path = write_config(tmp_path, taken.getsockname()[1])
+        text = path.read_text().replace("require_clock_sync: false", "require_clock_sync: true")
+        path.write_text(text)
+        test = Selftest(path, clock=VirtualClock(False))
+        test.config = None
+        checks = {c.name: c for c in (test.check_config(), test.check_clock())}
+        assert checks["clock"].result == FAIL and "timesyncd" in checks["clock"].hint
+        test.daemon = None
+        modbus = test.check_modbus()
+        # a listening socket that is not a Modbus server: not bindable, and the health block is unreadable
+        assert modbus.result == FAIL and "another program" in modbus.hint
+
+
+def test_selftest_reads_the_running_daemon(tmp_path: Path) -> None:
+    port = free_port()
+    path = write_config(tmp_path, port)
+    daemon = subprocess.Popen([sys.executable, "-m", "edge.cli", "run", "--config", str(path)], cwd=ROOT,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        got: dict[str, str] = {}
+        while time.monotonic() < deadline:
+            out = run_cli("selftest", "--config", path, "--json")
+            got = results(out.stdout)
+            if got.get("daemon") == PASS:
+                break
+            time.sleep(1.0)
+        assert got["daemon"] == PASS and got["modbus port"] == PASS and got["cameras"] == PASS, got
+        checks = {c["name"]: c for c in json.loads(out.stdout)["checks"]}
+        assert "in use by the daemon" in checks["cameras"]["detail"]
+        assert "answers" in checks["modbus port"]["detail"]
+    finally:
+        daemon.terminate()
+        daemon.wait(timeout=10)
