@@ -27,17 +27,19 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from drivers.camera.base import FramePair, FramePairSource
+from drivers.clock import Clock, SystemClock
 from drivers.notify import Notifier
 from edge.config.app import AppConfig, load_config
 from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthMonitor, HealthSnapshot, HealthState, standard_stages
+from edge.health import HealthMonitor, HealthSnapshot, HealthState, Status, standard_stages
 from edge.journal import MESSAGE_IDS, FaultLog
 from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
@@ -52,6 +54,7 @@ STATUS_PERIOD_S = 1.0
 QUEUE_WAIT_S = 0.2
 READY_WAIT_S = 60.0  # longest wait for the first pair before READY=1 is sent anyway
 EXTEND_S = 5.0  # each EXTEND_TIMEOUT_USEC while waiting for the first pair
+CLOCK_CHECK_S = 10.0  # how often the TIME_SYNC status bit is refreshed from the kernel
 JOIN_S = 0.5  # per thread at shutdown (a camera blocked mid-frame is left behind): exit within 2 s
 
 
@@ -91,10 +94,13 @@ def _plan(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
     return plan
 
 
-def _health(config: AppConfig, extra_nmea: bool) -> HealthMonitor:
+def _health(config: AppConfig, plan: SourcePlan, extra_nmea: bool) -> HealthMonitor:
     stages = standard_stages(output_stages(config.outputs, extra_nmea=extra_nmea),
                              stall_after_s=config.health.stale_s)
-    return HealthMonitor(stages, min_rate_hz=config.health.min_fps or None)
+    health = HealthMonitor(stages, min_rate_hz=config.health.min_fps or None)
+    health.set_flags(Status.CALIBRATION_VALID)  # the plan loaded and checked it
+    health.set_flags(Status.SITE_SURVEYED, plan.calibration.site is not None)
+    return health
 
 
 class Appliance:
@@ -107,6 +113,8 @@ class Appliance:
         self.pipeline, self.outputs, self.health = pipeline, outputs, health
         self.notifier, self.on_fixes, self.extra_nmea = notifier, on_fixes, tuple(extra_nmea)
         self.on_health: HealthCallback | None = None
+        self.clock: Clock = SystemClock()
+        self._clock_checked_s = -math.inf
         self.queue = _Latest()
         self.source: FramePairSource | None = None
         self.capture_errors = 0
@@ -125,7 +133,7 @@ class Appliance:
               on_fixes: FixCallback | None = None,
               extra_nmea: Sequence[NmeaStreamOutput] = ()) -> Appliance:
         plan = _plan(config, config_file)
-        health = _health(config, bool(extra_nmea))
+        health = _health(config, plan, bool(extra_nmea))
         return cls(config, config_file, plan, cls._pipeline(config, plan), cls._outputs(config, plan, health,
                    extra_nmea), health, notifier, on_fixes, extra_nmea)
 
@@ -254,6 +262,10 @@ class Appliance:
         return text
 
     def _report(self, snap: HealthSnapshot, ready: bool) -> None:
+        now_s = time.monotonic()
+        if now_s - self._clock_checked_s >= CLOCK_CHECK_S:  # NMEA carries UTC: is it true UTC?
+            self._clock_checked_s = now_s
+            self.health.set_flags(Status.TIME_SYNC, self.clock.synchronised())
         self.faults.observe(snap)
         if ready:
             self.notifier.status(self.status_line(snap))
@@ -281,7 +293,7 @@ class Appliance:
         try:
             config = load_config(self.config_file)
             plan = _plan(config, self.config_file)
-            health = _health(config, bool(self.extra_nmea))
+            health = _health(config, plan, bool(self.extra_nmea))
             outputs = self._outputs(config, plan, health, self.extra_nmea) \
                 if (config.outputs, config.health) != (self.config.outputs, self.config.health) else None
         except ConfigError as exc:

@@ -125,6 +125,7 @@ def test_daemon_lifecycle_under_a_real_notify_socket(tmp_path: Path, notify: Not
         first = mbpoll(port)
         assert first[0] == 1 and (first[4], first[5]) == (0x1234, 0x5678)  # map version, probe
         assert first[27] >= 1  # UPDATE_COUNTER: the first pair was processed and published before READY
+        assert first[17] & (1 << 3) and first[17] & (1 << 7)  # STATUS: CALIBRATION_VALID, SITE_SURVEYED
         lines: list[str] = []
         threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True).start()  # type: ignore[arg-type]
         end = time.monotonic() + 90
