@@ -19,6 +19,7 @@ import threading
 
 from drivers.notify import SystemdNotifier
 from edge.config.app import load_config
+from edge.console import LiveTable
 from edge.daemon import Appliance
 from edge.journal import setup_logging
 from edge.outputs.nmea_stream import NmeaStreamOutput
@@ -28,6 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", required=True, metavar="FILE", help="appliance configuration (YAML)")
     parser.add_argument("--seconds", type=float, metavar="N", help="stop after N seconds (default: run)")
     parser.add_argument("--print-nmea", action="store_true", help="also write NMEA sentences to stdout")
+    parser.add_argument("--watch", action="store_true",
+                        help="show a live table of the tracks on stdout (refreshed in place on a terminal)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -35,6 +38,9 @@ def run(args: argparse.Namespace) -> int:
     setup_logging(config.logging.level)
     extra = [NmeaStreamOutput(sys.stdout)] if args.print_nmea else []
     appliance = Appliance.build(config, args.config, SystemdNotifier(), extra_nmea=extra)
+    if args.watch:
+        view = LiveTable(sys.stdout, lambda fixes: appliance.outputs.target_numbers(fixes))
+        appliance.on_fixes, appliance.on_health = view.update, view.draw
     stop, reload = threading.Event(), threading.Event()
     for signum in (signal.SIGTERM, signal.SIGINT):
         signal.signal(signum, lambda *_: stop.set())
