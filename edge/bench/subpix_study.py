@@ -101,7 +101,7 @@ def _windows(a: np.ndarray, cols: list[int]) -> np.ndarray:
     return np.stack([a[:, c - H:c + H + 1] for c in cols])
 
 
-def _pass(template: np.ndarray, cands: np.ndarray) -> tuple[np.ndarray, ...]:
+def _pass(template: np.ndarray, cands: np.ndarray) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
     t = template - template.mean()
     c = cands - cands.mean(axis=(1, 2), keepdims=True)
     ssd = ((t - c) ** 2).sum(axis=(1, 2))
