@@ -26,7 +26,7 @@ BOUND: dict[str, Any] = {"bound_s": 600.0, "bound_risk": 0.05}
 def _butterworth(fs: float, fc: float):
     def make():
         f = ButterworthQ(fc, fs)
-        held = [None]
+        held: list[float | None] = [None]
 
         def step(z):
             z = held[0] if z is None else z          # no notion of a missing sample: hold
