@@ -200,7 +200,9 @@ class _ImageContext(ModbusServerContext):
     async def async_setValues(self, device_id: int, func_code: int, address: int,
                               values: Sequence[int] | Sequence[bool]) -> ExcCodes | None:
         self._check_unit(device_id)
-        return ExcCodes(self._serve(func_code, address, len(values), True))
+        result = self._serve(func_code, address, len(values), True)
+        assert isinstance(result, ExceptionCode)  # writes are always refused
+        return ExcCodes(result)
 
 
 class _GuardedFramer:
@@ -313,7 +315,8 @@ class _ThreadedServer(ModbusServer):
 
     async def _open(self) -> ModbusBaseServer:
         server = self._make_server(_ImageContext(self._serve, self._unit), self._trace_connect)
-        server.framer = partial(self._framer, on_garbage=self._counters.count_garbage, unit=self._unit)
+        # pymodbus types framer as a class; it only calls it with the decoder, which the partial takes
+        server.framer = partial(self._framer, on_garbage=self._counters.count_garbage, unit=self._unit)  # type: ignore[assignment]
         await server.serve_forever(background=True)  # RuntimeError if it cannot listen/open
         return server
 
@@ -343,6 +346,7 @@ class _ThreadedServer(ModbusServer):
                 return
 
     async def _reopen(self) -> ModbusBaseServer | None:
+        assert self._wake is not None  # set by _run, the only caller
         delay_s = 1.0
         while not self._stop_requested:
             try:

@@ -183,6 +183,7 @@ class MulticastUdpSender(UdpSenderBase):
         self._socket = sock
 
     def _interface_option(self) -> bytes:
+        assert self.interface is not None  # only called when an interface is configured
         try:
             return socket.inet_aton(str(ipaddress.IPv4Address(self.interface)))
         except ValueError:

@@ -180,9 +180,9 @@ class HealthMonitor:
             flags = self._flags
             rate = self._frame_rate(now)
             latencies = [
-                self._beats[s.name].latency_s
+                latency
                 for s, v in zip(self._stages, views, strict=True)
-                if v.fresh and self._beats[s.name].latency_s is not None
+                if v.fresh and (latency := self._beats[s.name].latency_s) is not None
             ]
         state, reason, code = HealthState.OK, "", 0
         for stage, view in zip(self._stages, views, strict=True):

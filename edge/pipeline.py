@@ -155,7 +155,7 @@ class Pipeline:
         points through the lens model in one call (the undistortion costs ~0.1 ms a call)."""
         if not raw:
             return []
-        pts = []
+        pts: list[tuple[float, float]] = []
         for x0, y0, x1, y1 in raw:
             xs, ys = (x0 - 0.5, 0.5 * (x0 + x1) - 0.5, x1 - 0.5), (y0 - 0.5, 0.5 * (y0 + y1) - 0.5, y1 - 0.5)
             pts.extend((x, y) for x in xs for y in ys)

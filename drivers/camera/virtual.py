@@ -66,6 +66,7 @@ class VirtualSource(FramePairSource):
     def read(self) -> FramePair | None:
         while not self.closed:
             if self.realtime:
+                assert self.fps is not None  # __init__: real time needs a positive fps
                 now = self._clock()
                 if self._start_ns is None:
                     self._start_ns = now
@@ -83,7 +84,10 @@ class VirtualSource(FramePairSource):
                 self.dropped += 1
                 continue
             if not self.realtime:
-                if not self.loop or k < self.n_triggers:
+                if not self.loop:
+                    return pair
+                assert self.n_triggers is not None and self.fps is not None  # __init__: loop needs both
+                if k < self.n_triggers:
                     return pair
                 shift = (k // self.n_triggers) * round(self.n_triggers * 1e9 / self.fps)
                 return replace(

@@ -80,6 +80,7 @@ def _matcher(cost: str, sub: str, pre: str, noise_dn: float, impl: str = "int"):
 
 def section_subpixel(args: argparse.Namespace, out: list[str]) -> dict[str, np.ndarray]:
     seeds = range(EVAL_SEED0, EVAL_SEED0 + args.seeds)
+    worst_lsb: dict[str, float]
     rows, bias_curves, worst_lsb = [], {}, {}
     for cond in CONDITIONS:
         matchers = {name: _matcher(*spec, cond.noise_dn) for name, spec in METHODS.items()}
@@ -162,10 +163,12 @@ def section_fixed(args: argparse.Namespace, out: list[str]) -> None:
         for z in zs:
             a, b = ki.update(float(z)), kf.update(float(z))
             if a.valid and b.valid:
+                assert a.disparity_q8 is not None  # valid integer estimates carry it
                 diff = max(diff, abs(a.disparity_q8 - 256 * b.disparity_px))
         kc = DisparityKalman(des)
         for z in [13.0] * 10_005:
             e = kc.update(z)
+        assert e.disparity_q8 is not None  # running after 10 000 samples on a line
         rows.append([f"Kalman sigma_a {sa} / {fs:g} fps", f"{diff:.2f}", str(e.disparity_q8 - 13 * 256)])
     out.append(f"Fixed point vs float reference ({n} noisy samples; then 10 000 constant samples)")
     out.append(table(["filter", "max |int - float| (LSB)", "stuck error after 10 000 (LSB)"], rows) + "\n")

@@ -35,6 +35,7 @@ DETECT_PATHS = ("edge/measure/detect.py", "edge/detect.py")  # this tree; revisi
 
 def load_module(name: str, path: Path):
     spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None  # a .py file
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
@@ -74,6 +75,7 @@ def main() -> int:
         src = open_recording(root)
         cal = recording_calibration(root, src.meta)
         rect = Rectifier(cal.rig)
+        assert cal.site is not None  # the recordings benched state their site
         detectors = [m.Detector(rect, cal.site.height_m, decimation=cfg.detect_decimation,
                                 min_ship_px=cfg.min_ship_px) for m in (baseline, current)]
         n = len(src)
@@ -91,6 +93,7 @@ def main() -> int:
                     blobs[j] += len(found)
         calls = len(images) * args.repeat
         b_ms, c_ms = (1e3 * float(np.median(t)) for t in times)
+        assert images[0] is not None  # unreadable images were dropped
         h, w = images[0].shape
         print(f"{root.name:20s} {w:4d}x{h:<4d} {b_ms:10.2f} {c_ms:10.2f} {c_ms / b_ms:6.2f}"
               f" {blobs[0] / calls:10.2f} {blobs[1] / calls:10.2f}")

@@ -42,6 +42,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from edge.measure.settings import SUBPIXELS, PointSettings
 
@@ -74,6 +75,7 @@ def layout(size: int, count: int) -> list[dict]:
     from edge.sim.ships import ShipModel
 
     cal = calibration_from_dict(_calibration(size), "bench")
+    assert cal.site is not None  # the bench scenario states its site
     f, width, h = cal.rig.focal_px(), cal.rig.width, cal.site.height_m
     length_px, bottom_px, gap_px = LAYOUT[size]
     height_share = float(ShipModel.build(SHIP_KIND, 20.0).extent_local[1, 2]) / 20.0  # top / length
@@ -104,7 +106,7 @@ def render(size: int, count: int, frames: int, cache: Path) -> Path:
     from edge.sim.scenario import scenario_from_dict
     from edge.sim.simulator import Simulation
 
-    data = {"calibration": _calibration(size), "fps": 10, "duration_s": frames / 10 + 0.05,
+    data: dict[str, Any] = {"calibration": _calibration(size), "fps": 10, "duration_s": frames / 10 + 0.05,
             "atmosphere": {"visibility_m": 20000}, "ships": layout(size, count)}
     sim = Simulation(scenario_from_dict(data, cache / "bench.yaml", f"bench-{size}-{count}"), seed=1)
     print(f"rendering {out} ({len(data['ships'])} ships, {frames} pairs) ...", file=sys.stderr)
@@ -127,7 +129,7 @@ def child(recording: Path, subpixel: str) -> dict:
     cal = recording_calibration(recording, source.meta)
     pipe = Pipeline(cal, PipelineConfig(), fps=float(source.meta["fps"]), subpixel=subpixel)
     rect = pipe.rect
-    bm = cv2.StereoBM_create(numDisparities=128, blockSize=15)
+    bm = cv2.StereoBM_create(numDisparities=128, blockSize=15)  # type: ignore[attr-defined]  # not in cv2's stubs
     times, base, live = [], [], []
     for k, pair in enumerate(source):
         t0 = time.process_time()

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -52,7 +53,7 @@ def textured_points(pair: RealPair, step: int) -> list[tuple[int, int, float]]:
 
 def stereo_bm(pair: RealPair) -> np.ndarray:
     """StereoBM with its defaults (x-Sobel prefilter, cap 31, SAD), 15x15, 64 disparities, 1/16 px."""
-    bm = cv2.StereoBM_create(numDisparities=64, blockSize=WINDOW)
+    bm = cv2.StereoBM_create(numDisparities=64, blockSize=WINDOW)  # type: ignore[attr-defined]  # not in cv2's stubs
     d = bm.compute(pair.left, pair.right).astype(np.float64) / 16.0
     return np.where(d >= 0, d, np.nan)
 
@@ -63,7 +64,7 @@ def evaluate(pair: RealPair, pts: list[tuple[int, int, float]]) -> dict[str, np.
     pre_l, pre_r = xsobel(pair.left), xsobel(pair.right)
     norm_l, norm_r = xsobel_normalised(pair.left), xsobel_normalised(pair.right)
     caps = {cap: (xsobel(pair.left, cap), xsobel(pair.right, cap)) for cap in (31, 63, 127)}
-    methods = {
+    methods: dict[str, tuple[np.ndarray, np.ndarray, dict[str, Any]]] = {
         "SSD+parabola (thesis)": (pair.left, pair.right, {"cost": "ssd", "subpixel": "parabola"}),
         "ZSSD+cancel (raw)": (pair.left, pair.right, {"subpixel": "cancel"}),
         "xsobel15 + ZSSD+parabola": (pre_l, pre_r, {"subpixel": "parabola"}),

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import cast
 
 import numpy as np
 
@@ -101,7 +102,7 @@ def _windows(a: np.ndarray, cols: list[int]) -> np.ndarray:
     return np.stack([a[:, c - H:c + H + 1] for c in cols])
 
 
-def _pass(template: np.ndarray, cands: np.ndarray) -> tuple[np.ndarray, ...]:
+def _pass(template: np.ndarray, cands: np.ndarray) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
     t = template - template.mean()
     c = cands - cands.mean(axis=(1, 2), keepdims=True)
     ssd = ((t - c) ** 2).sum(axis=(1, 2))
@@ -203,7 +204,7 @@ def _variant(half: str = "binom", whole: str = "binom", five: bool = False, tape
         m = match_point(left, right, x, y, max_disparity=12, subpixel="parabola", impl="float")
         if not m.valid:
             return m
-        est = {True: [], False: []}
+        est: dict[bool, list[float]] = {True: [], False: []}
         passes = _variant_passes(left, right, x, y, m.disparity_int, half, whole)
         for tmpl, cands, centre, whole_pass in passes:
             yv = _log_ncc(tmpl, cands, col_w)
@@ -214,7 +215,8 @@ def _variant(half: str = "binom", whole: str = "binom", five: bool = False, tape
             else:
                 ym, y0, yp = yv[k - 1:k + 2]
                 est[whole_pass].append(centre + k - 2 + (ym - yp) / (2 * (ym - 2 * y0 + yp)))
-        d = a_weight * np.mean(est[True]) + (1 - a_weight) * np.mean(est[False])
+        # cast: numpy's stubs type np.mean as floating, not float (np.float64 is a float)
+        d = cast(float, a_weight * np.mean(est[True]) + (1 - a_weight) * np.mean(est[False]))
         return Match(math.isfinite(d), d, m.cost, m.sigma_px)
     return run
 

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 
@@ -17,14 +18,15 @@ EVAL_SEED0 = 1000
 SIGMA_MEAS_PX = 0.10
 LAG_LIMIT_PX = 0.01            # tuning constraint (acceptance: 0.02; margin for seed-to-seed spread)
 FLOOR_PX = 0.01                # the matcher's sub-pixel bias bound (research note: max |bias| <= 0.01 px)
-BOUND = {"bound_s": 600.0, "bound_risk": 0.05}   # the "3-sigma bound" Kalman: a 10-minute pass, 5 % risk
+# the "3-sigma bound" Kalman: a 10-minute pass, 5 % risk (Any: design_kalman's keywords are not all float)
+BOUND: dict[str, Any] = {"bound_s": 600.0, "bound_risk": 0.05}
 
 
 
 def _butterworth(fs: float, fc: float):
     def make():
         f = ButterworthQ(fc, fs)
-        held = [None]
+        held: list[float | None] = [None]
 
         def step(z):
             z = held[0] if z is None else z          # no notion of a missing sample: hold
@@ -64,6 +66,7 @@ def _tune(sc, fs, bias, seeds, grid) -> tuple[float, list[str]]:
         key = (abs(lag) > LAG_LIMIT_PX, rms if abs(lag) <= LAG_LIMIT_PX else abs(lag))
         if best is None or key < best[0]:
             best = (key, sa)
+    assert best is not None  # the grid is never empty
     return best[1], notes
 
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Callable
 
 from edge.core.budget import (
     DEFAULT_MIN_PIXELS,
@@ -41,7 +42,7 @@ from edge.core.budget import (
 )
 
 
-def _positive(kind: type) -> object:
+def _positive(kind: type) -> Callable[[str], float | int]:
     def parse(text: str) -> float | int:
         try:
             value = kind(text)

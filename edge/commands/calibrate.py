@@ -173,13 +173,15 @@ def read_landmarks(path: Path, site: Site | None) -> tuple[list[str], np.ndarray
             )
     world = values[:, :3]
     if world_cols == WORLD_COLUMNS[1]:
-        for c, (lo, hi) in zip(world_cols[:2], ((-90.0, 90.0), (-180.0, 180.0)), strict=True):
+        # lo, hi were column indices above, bounds here
+        for c, (lo, hi) in zip(world_cols[:2], ((-90.0, 90.0), (-180.0, 180.0)), strict=True):  # type: ignore[assignment]
             col = world[:, world_cols.index(c)]
             bad = np.flatnonzero((col < lo) | (col > hi))
             if bad.size:
                 raise ConfigError(
                     path, f"row {names[bad[0]]!r}, {c}", f"a value in [{lo}, {hi}]", col[bad[0]]
                 )
+        assert site is not None  # refused above without one
         world = geodetic_to_world(world[:, 0], world[:, 1], world[:, 2], site)
     return names, world, values[:, 3:5], values[:, 5:7]
 

@@ -26,6 +26,7 @@ import inspect
 import math
 from collections import defaultdict
 from collections.abc import Sequence
+from typing import Any, cast
 
 import cv2
 import numpy as np
@@ -118,7 +119,8 @@ def _ratios(costs: np.ndarray, is_min: np.ndarray, best: list[int]) -> list[floa
     """Per row: the least cost where is_min, over the best (inf without one; the reference's rules)."""
     second = np.where(is_min, costs, _NO_COST).min(axis=1).tolist()
     out = []
-    for any_min, sec, b in zip(is_min.any(axis=1).tolist(), second, best, strict=True):
+    # cast: numpy's stubs type .any(axis=...) as bool | ndarray
+    for any_min, sec, b in zip(cast(np.ndarray, is_min.any(axis=1)).tolist(), second, best, strict=True):
         if not any_min:
             out.append(math.inf)
         elif b <= 0:
@@ -134,8 +136,8 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
                  min_ratio: float = 1.1, max_sigma_px: float = 0.3) -> list[PointTrack]:
     """`track_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=..., predicted_dy=...)` (impl="int")
     for every i, the integer searches batched; bit-identical results."""
-    kw = dict(window=window, search_radius=search_radius, subpixel=subpixel, noise_dn=noise_dn,
-              min_ratio=min_ratio, max_sigma_px=max_sigma_px)
+    kw: dict[str, Any] = dict(window=window, search_radius=search_radius, subpixel=subpixel,
+                              noise_dn=noise_dn, min_ratio=min_ratio, max_sigma_px=max_sigma_px)
     n = len(prevs)
     out: list[PointTrack | None] = [None] * n
     h, r = window // 2, search_radius
@@ -271,7 +273,8 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
         last = np.array([it[6] - it[9] for it in items])
         k0s, ratios = _curve_minima(curves, first, last)
         for it, curve, a, k0, ratio in zip(items, curves, first.tolist(), k0s, ratios, strict=True):
-            i, rows = it[0], slice(it[4] - h, it[4] + h + 1)
+            # rows: the gathered windows above, a slice of image rows here
+            i, rows = it[0], slice(it[4] - h, it[4] + h + 1)  # type: ignore[assignment]
             row_bands = (lefts[i][rows], rights[i][rows])
             searched.append((it, curve[a:a + it[6] - it[5] + 1], k0, ratio, row_bands))
     refined = _refine_gauss(searched, h, [left.shape[1] for left in lefts], subpixel, cost, min_ratio)
@@ -351,7 +354,7 @@ def _match_site(left: object, right: object, x: object, y: object, pred: object,
         return None
     if not (math.isfinite(xf) and math.isfinite(yf)):
         return None
-    height, width = left.shape                         # type: ignore[union-attr]
+    height, width = left.shape                         # type: ignore[attr-defined]
     xi, yi = round_half_away(xf), round_half_away(yf)
     if yi - h < 0 or yi + h >= height or xi - h - 1 < 0 or xi + h + 1 >= width:
         return None

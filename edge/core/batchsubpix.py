@@ -40,7 +40,7 @@ def ncc_terms_batch(regions: np.ndarray) -> np.ndarray:
     # column sums over the w rows and the product's entries are sums of w terms <= 510^2: float32
     # holds them exactly while w 510^2 < 2^24 (windows up to 63 rows), at half the memory traffic of
     # float64; the sums over the window's columns (up to w^2 510^2) are then taken in float64
-    exact = np.float32 if w * 510 * 510 < 2**24 else np.float64
+    exact: type[np.floating] = np.float32 if w * 510 * 510 < 2**24 else np.float64
     regs = regions.astype(exact)
     ext = np.concatenate((regs[..., :-1] + regs[..., 1:], 2 * regs[..., :-1]), axis=-1)  # (n, 2, w, 2w+8)
     windows, tmpl_cols, rows, pair_cols = _ncc_index(w)

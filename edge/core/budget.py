@@ -79,7 +79,9 @@ class Budget:
 
     def to_dict(self) -> dict:
         """Plain JSON-ready mapping with the field names above; infinities become None."""
-        return _finite_or_none(asdict(self))
+        plain = _finite_or_none(asdict(self))
+        assert isinstance(plain, dict)  # a dict maps to a dict
+        return plain
 
 
 def near_range(baseline_m: float, fov_deg: float) -> float:
@@ -87,7 +89,7 @@ def near_range(baseline_m: float, fov_deg: float) -> float:
     return baseline_m / math.tan(math.radians(fov_deg) / 2.0)
 
 
-def max_range(tolerance_m: float | np.ndarray, eps: float, baseline_m: float) -> np.ndarray:
+def max_range(tolerance_m: float | np.ndarray, eps: float, baseline_m: float | np.ndarray) -> np.ndarray:
     """Exact Z with eps Z^2 / (L_B - eps Z) = E_z (eq. 4.5), the positive root of the quadratic."""
     e = np.asarray(tolerance_m, dtype=np.float64)
     # (E/2)(sqrt(1 + 4 L_B/(E eps)) - 1) written without the cancellation of the "- 1"

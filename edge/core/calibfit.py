@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -249,7 +250,7 @@ def fit_rig(
     if not (math.isfinite(baseline_m) and baseline_m > 0.0):
         raise CalibrationError("baseline", "a positive length in metres", baseline_m)
     cx, cy = principal_point if principal_point is not None else ((width - 1) / 2.0, (height - 1) / 2.0)
-    has_world = np.isfinite(world_m).all(axis=1)
+    has_world = cast(np.ndarray, np.isfinite(world_m).all(axis=1))  # numpy stubs: bool | ndarray
     seen = {"left": np.isfinite(uv_left).all(axis=1), "right": np.isfinite(uv_right).all(axis=1)}
     pixels = {"left": uv_left, "right": uv_right}
     centre = {"left": -0.5 * baseline_m, "right": 0.5 * baseline_m}

@@ -59,11 +59,12 @@ class CameraParams:
         angles = tuple(float(a) for a in values[-3:])
         if self.kind == "pinhole":
             fx, fy, *dist = (float(v) for v in values[:-3])
-            return PinholeCamera(fx, fy, self.cx, self.cy, (*dist, 0.0)[:5], angles)
+            # tuple lengths (5, 3) are checked by the camera's __post_init__
+            return PinholeCamera(fx, fy, self.cx, self.cy, (*dist, 0.0)[:5], angles)  # type: ignore[arg-type]
         coeffs = [0.0] * 10
         for k, value in zip(POLY_FREE, values[:-3], strict=True):
             coeffs[k] = float(value)
-        return Poly10Camera(self.cx, self.cy, tuple(coeffs), angles)
+        return Poly10Camera(self.cx, self.cy, tuple(coeffs), angles)  # type: ignore[arg-type]  # 3 angles
 
 
 def directions(world_m: np.ndarray, centre_x: float) -> np.ndarray:

@@ -77,7 +77,7 @@ def horizon_dip_rad(height_m: float, refraction_k: float = REFRACTION_K) -> floa
     return math.acos(r_e / (r_e + max(0.0, height_m)))
 
 
-def sea_range_m(depression_rad: np.ndarray, height_m: float,
+def sea_range_m(depression_rad: np.ndarray | float, height_m: float,
                 refraction_k: float = REFRACTION_K) -> np.ndarray:
     """Horizontal distance to where a ray `depression_rad` below the horizontal meets the sea.
 

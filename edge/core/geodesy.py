@@ -29,7 +29,9 @@ WGS84_F = 1.0 / 298.257223563  # flattening
 WGS84_E2 = WGS84_F * (2.0 - WGS84_F)  # first eccentricity squared
 
 
-def geodetic_to_ecef(lat_deg: np.ndarray, lon_deg: np.ndarray, height_m: np.ndarray) -> np.ndarray:
+def geodetic_to_ecef(
+    lat_deg: np.ndarray | float, lon_deg: np.ndarray | float, height_m: np.ndarray | float
+) -> np.ndarray:
     """WGS-84 geodetic -> Earth-centred Earth-fixed (..., 3) metres."""
     lat = np.radians(np.asarray(lat_deg, dtype=np.float64))
     lon = np.radians(np.asarray(lon_deg, dtype=np.float64))

@@ -107,8 +107,8 @@ class _CVFilter(ABC):
 
     def __init__(self, design: KalmanDesign) -> None:
         self.design = design
-        self._init: list[tuple[int, object]] = []     # (frame, measurement) while (re)starting
-        self._gated: list[tuple[int, object]] = []    # gated samples since the last accepted one
+        self._init: list[tuple[int, float]] = []     # (frame, measurement) while (re)starting
+        self._gated: list[tuple[int, float]] = []    # gated samples since the last accepted one
         self._frame = 0
         self.k = 0
         self.misses = 0
@@ -116,16 +116,16 @@ class _CVFilter(ABC):
 
     # arithmetic supplied by the subclasses -------------------------------------------------
     @abstractmethod
-    def _quantise(self, z_px: float) -> object:
+    def _quantise(self, z_px: float) -> float:
         """Measurement in the filter's number format."""
 
     @abstractmethod
-    def _line(self, samples: list[tuple[int, object]]) -> tuple[object, object, float]:
+    def _line(self, samples: list[tuple[int, float]]) -> tuple[float, float, float]:
         """Least-squares line through the (frame, measurement) samples (eq. K.5): d at the last
         frame, slope v, residual sum of squares in Q16 px^2."""
 
     @abstractmethod
-    def _set_start(self, d_last: object, v: object) -> None:
+    def _set_start(self, d_last: float, v: float) -> None:
         """State from the line fit, with the rate prior's pseudo-measurement v = 0 if any."""
 
     @abstractmethod
@@ -133,18 +133,18 @@ class _CVFilter(ABC):
         """d += v."""
 
     @abstractmethod
-    def _residual(self, z: object) -> tuple[object, int]:
+    def _residual(self, z: float) -> tuple[float, float]:
         """(residual, its square in Q16 px^2)."""
 
     @abstractmethod
-    def _correct(self, residual: object, k: int) -> None:
+    def _correct(self, residual: float, k: int) -> None:
         """d += alpha_k r, v += beta_k r."""
 
     @abstractmethod
     def _output(self, accepted: bool) -> Estimate:
         """The current estimate."""
 
-    def _try_start(self, samples: list[tuple[int, object]]) -> bool:
+    def _try_start(self, samples: list[tuple[int, float]]) -> bool:
         """(Re)start from the samples if they lie on a line (eq. K.5); else drop the one whose
         removal leaves a line (the largest residual can be a good sample next to an outlier), or,
         if there is none (two outliers), the oldest."""
@@ -166,6 +166,7 @@ class _CVFilter(ABC):
         have = z_px is not None and math.isfinite(z_px)
         if not self.running:
             if have:
+                assert z_px is not None  # have
                 self._init.append((self._frame, self._quantise(float(z_px))))
                 self._init = self._init[-d.init_samples:]
             if len(self._init) < d.init_samples or not self._try_start(self._init):
@@ -174,6 +175,7 @@ class _CVFilter(ABC):
         self._predict()
         accepted = False
         if have:
+            assert z_px is not None  # have
             z = self._quantise(float(z_px))
             residual, r2_q16 = self._residual(z)
             if r2_q16 <= self._gate_threshold_q16():
@@ -247,7 +249,7 @@ class DisparityKalman(_CVFilter):
     def _quantise(self, z_px: float) -> int:
         return to_q(z_px, SUBPIX_BITS)
 
-    def _line(self, samples: list[tuple[int, object]]) -> tuple[int, int, int]:
+    def _line(self, samples: list[tuple[int, float]]) -> tuple[int, int, int]:
         # u_i = n t_i - sum t (integer), slope = n sum(u z) / sum(u^2), d at the last frame (eq. K.5)
         n, t_last = len(samples), samples[-1][0]
         t_sum = sum(t for t, _ in samples)
@@ -260,7 +262,7 @@ class DisparityKalman(_CVFilter):
         res = [round_shift((int(z) << shift) - dl - v * (t - t_last), shift) for t, z in samples]   # Q8
         return dl, v, sum(e * e for e in res)                                               # Q16
 
-    def _set_start(self, d_last: object, v: object) -> None:
+    def _set_start(self, d_last: float, v: float) -> None:
         gd, gv = self.design.prior_gain_q24
         self.d_q24 = int(d_last) - round_shift(gd * int(v), AB_BITS)
         self.v_q24 = int(v) - round_shift(gv * int(v), AB_BITS)
@@ -268,12 +270,12 @@ class DisparityKalman(_CVFilter):
     def _predict(self) -> None:
         self.d_q24 += self.v_q24
 
-    def _residual(self, z: object) -> tuple[int, int]:
+    def _residual(self, z: float) -> tuple[int, int]:
         residual = (int(z) << (AB_BITS - SUBPIX_BITS)) - self.d_q24                      # Q24
         r_q8 = round_shift(residual, AB_BITS - SUBPIX_BITS)
         return residual, r_q8 * r_q8                                                        # Q16
 
-    def _correct(self, residual: object, k: int) -> None:
+    def _correct(self, residual: float, k: int) -> None:
         r = int(residual)
         self.d_q24 += round_shift(self.design.alpha_q24[k] * r, AB_BITS)
         self.v_q24 += round_shift(self.design.beta_q24[k] * r, AB_BITS)
@@ -295,7 +297,7 @@ class DisparityKalmanFloat(_CVFilter):
     def _quantise(self, z_px: float) -> float:
         return to_q(z_px, SUBPIX_BITS) / float(1 << SUBPIX_BITS)     # the same Q8 input
 
-    def _line(self, samples: list[tuple[int, object]]) -> tuple[float, float, float]:
+    def _line(self, samples: list[tuple[int, float]]) -> tuple[float, float, float]:
         t = np.array([s[0] for s in samples], dtype=float)
         z = np.array([float(s[1]) for s in samples])
         tc = t - t.mean()
@@ -304,18 +306,18 @@ class DisparityKalmanFloat(_CVFilter):
         res = z - dl - v * (t - t[-1])
         return dl, v, float(res @ res) * (1 << VAR_BITS)
 
-    def _set_start(self, d_last: object, v: object) -> None:
+    def _set_start(self, d_last: float, v: float) -> None:
         gd, gv = self.design.prior_gain
         self.d, self.v = float(d_last) - gd * float(v), float(v) - gv * float(v)
 
     def _predict(self) -> None:
         self.d += self.v
 
-    def _residual(self, z: object) -> tuple[float, float]:
+    def _residual(self, z: float) -> tuple[float, float]:
         residual = float(z) - self.d
         return residual, residual * residual * (1 << VAR_BITS)
 
-    def _correct(self, residual: object, k: int) -> None:
+    def _correct(self, residual: float, k: int) -> None:
         self.d += self.design.alpha[k] * float(residual)
         self.v += self.design.beta[k] * float(residual)
 

@@ -155,7 +155,7 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
                         init_samples, float(cov3[0, 0]), np.array(alpha), np.array(beta),
                         tuple(to_q(a, AB_BITS) for a in alpha), tuple(to_q(b, AB_BITS) for b in beta),
                         pred_arr, np.array(post), cov3,
-                        tuple(tuple(to_q(x, COV_BITS) for x in c) for c in cov3),
+                        tuple(tuple(to_q(x, COV_BITS) for x in c) for c in cov3),  # type: ignore[misc]  # rows of 3
                         coast_q, tuple(to_q(x, COV_BITS) for x in coast_q), to_q(r, COV_BITS), to_q(g2, 8),
                         tuple(to_q(x, COV_BITS) for x in np.minimum.accumulate(pred_arr)),
                         to_q(chi2_lim, VAR_BITS), (to_q(gain[0], AB_BITS), to_q(gain[1], AB_BITS)),

@@ -88,7 +88,8 @@ class Match:
 def _invalid(reason: str, x: float = math.nan, y: float = math.nan, **extra: float) -> Match:
     sigma = extra.pop("sigma_px", math.inf)
     cost = extra.pop("cost", math.nan)
-    return Match(False, math.nan, cost, sigma, reason, x_px=x, y_px=y, **extra)
+    # extra holds Match's float fields and disparity_int (an int): mypy checks every field against float
+    return Match(False, math.nan, cost, sigma, reason, x_px=x, y_px=y, **extra)  # type: ignore[arg-type]
 
 
 def round_half_away(v: float) -> int:
@@ -105,8 +106,8 @@ def check_images(left: object, right: object) -> str:
             return f"{name} image must be uint8, got {img.dtype}"
         if img.ndim != 2:
             return f"{name} image must be 2-D (grey), got {img.ndim}-D"
-    if left.shape != right.shape:                      # type: ignore[union-attr]
-        return f"image shapes differ: {left.shape} vs {right.shape}"   # type: ignore[union-attr]
+    if left.shape != right.shape:                      # type: ignore[attr-defined]
+        return f"image shapes differ: {left.shape} vs {right.shape}"   # type: ignore[attr-defined]
     return ""
 
 
@@ -147,7 +148,8 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
             first, _ = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel")
             step = refit_float if arith.is_float else refit_q8
             noise = noise_dn if sigma_px <= REFIT_SMOOTH_MAX_SIGMA_PX else None
-            value = None if first is None else step(a_band, b_band, xa, first, noise)
+            # here and below: values are Q8 ints on the integer path, floats on the float one (is_float)
+            value = None if first is None else step(a_band, b_band, xa, first, noise)  # type: ignore[arg-type]
             if value is not None:
                 return value, ""
         method = "cancel6-gauss"            # noise-dominated, near the border or no minimum: six passes
@@ -157,7 +159,7 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
         fit = arith.fit(costs[k0 - 1:k0 + 2], d0 - 1)
         if fit is None:
             return None, NO_BRACKET
-        return (fit if arith.is_float else sp.fit_to_q8(fit)), ""
+        return (fit if arith.is_float else sp.fit_to_q8(fit)), ""  # type: ignore[arg-type]
     if method == "cancel6-gauss" and arith.cost == "zssd":
         value = _gauss6(arith, a_band, b_band, xa, d0)
         if value is not None:
@@ -170,7 +172,7 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
     if fit_a is None or fit_b is None:
         return None, "half-pixel cancellation pass has no interior minimum"
     if method == "cancel-oneway":
-        return (sp.cancel_float(fit_a, fit_b) if arith.is_float else sp.cancel_q8(fit_a, fit_b)), ""
+        return (sp.cancel_float(fit_a, fit_b) if arith.is_float else sp.cancel_q8(fit_a, fit_b)), ""  # type: ignore[arg-type]
     fit_ra, fit_rb = arith.fit(ra, -d0 - 2), arith.fit(rb, -d0 - 2)
     if fit_ra is None or fit_rb is None:
         return None, "right-to-left cancellation pass has no interior minimum"
@@ -178,10 +180,10 @@ def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: in
         fit_m, fit_rm = arith.fit(curves[4], d0 - 2), arith.fit(curves[5], -d0 - 2)
         if fit_m is not None and fit_rm is not None:      # else: the four-pass result
             six = sp.symmetric6_float if arith.is_float else sp.symmetric6_q8
-            return six(fit_a, fit_b, -fit_ra, -fit_rb, fit_m, -fit_rm), ""
+            return six(fit_a, fit_b, -fit_ra, -fit_rb, fit_m, -fit_rm), ""  # type: ignore[arg-type]
     if arith.is_float:
         return sp.symmetric_float(fit_a, fit_b, -fit_ra, -fit_rb), ""
-    return sp.symmetric_q8(fit_a, fit_b, -fit_ra, -fit_rb), ""
+    return sp.symmetric_q8(fit_a, fit_b, -fit_ra, -fit_rb), ""  # type: ignore[arg-type]
 
 
 def _gauss6(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int,
@@ -198,7 +200,8 @@ def _gauss6(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: i
         return None
     da, db, ra, rb, dm, rm = fits
     six = sp.symmetric6_float if arith.is_float else sp.symmetric6_q8
-    return six(da, db, -ra, -rb, dm, -rm)
+    # none is None (checked above); Q8 ints or floats as in refine
+    return six(da, db, -ra, -rb, dm, -rm)  # type: ignore[arg-type, operator]
 
 
 def second_best_ratio(costs: np.ndarray, k0: int) -> float:

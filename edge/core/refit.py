@@ -251,7 +251,9 @@ def refit_q8(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_q8: i
     q = np.rint(bands @ _stage_matrix(p, ncols, smooth))                   # [L (Q0/Q3) | Rs (Q8) | 1]
     v = (q.T @ q).ravel()[_sum_index(w)].sum(axis=1).astype(np.int64).tolist()     # exact: < 2^53
     n_px = w * w
-    if smooth and _mismatched(n_px, v, SMOOTHED_NOISE_GAIN * 64 * (smooth_noise_dn ** 2 + 1 / 12)):
+    if smooth_noise_dn is not None and _mismatched(
+        n_px, v, SMOOTHED_NOISE_GAIN * 64 * (smooth_noise_dn ** 2 + 1 / 12)
+    ):
         return refit_q8(left_band, right_band, xl, first_q8)
     r_l = _fit_q(n_px, v[1], v[5:2:-1], v[11:8:-1], v[12:15])              # template L, candidates Rs
     r_r = _fit_q(n_px, v[4], v[2::-1], v[8:5:-1], v[15:18])               # template Rs, candidates L
@@ -279,7 +281,9 @@ def refit_float(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_px
         ls, rs = ls @ _smoother(ncols) / 8, rs @ _smoother(ncols) / 8
     v = _sums(ls, rs)
     n_px = w * w
-    if smooth and _mismatched(n_px, v, SMOOTHED_NOISE_GAIN * (smooth_noise_dn ** 2 + 1 / 12)):
+    if smooth_noise_dn is not None and _mismatched(
+        n_px, v, SMOOTHED_NOISE_GAIN * (smooth_noise_dn ** 2 + 1 / 12)
+    ):
         return refit_float(left_band, right_band, xl, first_px)
     r_l = _fit_float(n_px, v[1], v[5:2:-1], v[11:8:-1], v[12:15])
     r_r = _fit_float(n_px, v[4], v[2::-1], v[8:5:-1], v[15:18])

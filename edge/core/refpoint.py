@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -177,7 +178,9 @@ def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np
     sx, sy = sigmas
     h, r = window // 2, search_radius
     if best is None:
-        best = tuple(int(i) for i in np.unravel_index(int(np.argmin(costs)), costs.shape))
+        # cast: costs is 2-D, so unravel_index gives (v, u); numpy's stubs cannot say so
+        best = cast(tuple[int, int],
+                    tuple(int(i) for i in np.unravel_index(int(np.argmin(costs)), costs.shape)))
     iy, ix = best
     if not (0 < iy < 2 * r and 0 < ix < 2 * r):
         return _fail("minimum on the edge of the search square", xf, yf, sx, sy)

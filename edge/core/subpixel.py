@@ -258,6 +258,7 @@ def ncc_log_curves(left_band: np.ndarray, right_band: np.ndarray, xl: int, d0: i
     mean-subtracted SSD curves and energies, 2X = E_T + E_W - SSD."""
     if as_float:
         costs, energy = _pass_costs(left_band, right_band, xl, d0, "zssd", True, True, True)
+        assert energy is not None  # asked for with energies=True
         e_w = energy[::-1, _CANDIDATE_OF]            # LR: right candidates; RL: left ones
         both = np.concatenate((e_w, energy[:, _TEMPLATE_OF] + e_w - costs), axis=1)
     else:

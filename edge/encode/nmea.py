@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable, Sequence
+from typing import TypeGuard
 
 from edge.fix import ShipFix, TrackStatus
 
@@ -93,7 +94,7 @@ def sentence(address: str, fields: Sequence[str]) -> str:
     return line
 
 
-def _known(value: float | None) -> bool:
+def _known(value: float | None) -> TypeGuard[float]:
     return value is not None and math.isfinite(value)
 
 
@@ -221,6 +222,8 @@ def txy(
     ``XXX`` is the documented placeholder.
     """
     x_m, y_m = east_north_m(fix)
+    vx_mps: float | None
+    vy_mps: float | None
     if _known(fix.sog_kn) and _known(fix.cog_deg):
         course_rad = math.radians(fix.cog_deg)
         vx_mps = fix.sog_kn * MPS_PER_KNOT * math.sin(course_rad)

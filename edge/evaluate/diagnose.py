@@ -100,7 +100,8 @@ class Diagnoser:
         ur = self.rect.raw_to_rect(self.right.project(world), 1)
         return ul[:, 0] - ur[:, 0]
 
-    def _outlines(self, p, ship: int, posed, images, d_bridge: float) -> tuple[float, float]:
+    def _outlines(self, p, ship: int, posed, images: tuple[np.ndarray, np.ndarray],
+                  d_bridge: float) -> tuple[float, float]:
         """The left and right outline's disparity - d_bridge in the point's row (nan: the ship is
         wider than two windows there, or the outline does not match)."""
         w = p.s.window
@@ -153,6 +154,7 @@ class Diagnoser:
         r_filtered = r_point * d_point / p.disparity
         raw_px = math.nan if p.raw_disparity is None else p.raw_disparity - d_point
         d_bridge = float(self._disparity(bridge_xyz[None])[0])
+        scan: tuple[float, ...]
         ends, scan = (math.nan, math.nan), ()
         if images is not None:
             ends = self._outlines(p, ship, posed, images, d_bridge)
@@ -162,7 +164,7 @@ class Diagnoser:
                      math.nan if p.raw_disparity is None else p.raw_disparity - d_bridge, *ends,
                      bool(receding and receding.get(ship_id, False)), scan)
 
-    def _scan(self, p, images, d_bridge: float) -> tuple[float, ...]:
+    def _scan(self, p, images: tuple[np.ndarray, np.ndarray], d_bridge: float) -> tuple[float, ...]:
         """The product's match at the followed point with each of SCAN_WINDOWS (the track's settings
         otherwise, its filtered disparity as the prediction), minus the bridge's true disparity."""
         out = []
@@ -175,6 +177,7 @@ class Diagnoser:
 
 def diagnose(pipe, diag: Diagnoser, source, truth: dict[int, np.ndarray]) -> tuple[list[Probe], dict]:
     """Run the product pipeline over `source`, probing every T track each pair; truth: ship -> rows."""
+    misses: defaultdict[str, int]
     probes, misses = [], defaultdict(int)
     index = {sid: {int(r[0]): r[1:4] for r in rows} for sid, rows in truth.items()}
     receding = {(sid, int(r[0])): bool(g > 0) for sid, rows in truth.items() if len(rows) >= 2
@@ -252,7 +255,7 @@ def table(probes: list[Probe]) -> list[str]:
         total = np.array([p.total_m for p in ps])
         raw_f = raw[np.isfinite(raw)]
         mad = 1.4826 * float(np.median(np.abs(raw_f - np.median(raw_f)))) if raw_f.size else math.nan
-        parts = defaultdict(int)
+        parts: defaultdict[str, int] = defaultdict(int)
         for p in ps:
             parts[p.part] += 1
         values = (f"{lo / 1000:.0f}-{hi / 1000:.0f} km", str(len(ps)), f"{np.mean(tol):.0f}",

@@ -59,7 +59,7 @@ def pitched(cal: Calibration, pitch_deg: float) -> Calibration:
 
     def turn(cam: CameraModel) -> CameraModel:
         rx, ry, rz = cam.rotation_deg
-        return dataclasses.replace(cam, rotation_deg=(rx + pitch_deg, ry, rz))
+        return dataclasses.replace(cam, rotation_deg=(rx + pitch_deg, ry, rz))  # type: ignore[type-var]  # a dataclass
 
     return Calibration(StereoRig(rig.baseline_m, rig.width, rig.height, turn(rig.left), turn(rig.right)),
                        cal.site)
@@ -92,6 +92,7 @@ def measure(root: Path, pitch_deg: float = 0.0, cfg: PipelineConfig | None = Non
             enough = len(bands) >= max(2, HORIZON_BANDS // 2)
             offsets.append(float(np.median(bands)) if enough else math.nan)
             spreads.append(float(np.sqrt(np.mean((bands - np.median(bands)) ** 2))) if enough else math.nan)
+    assert cal.site is not None  # detector_for refused a recording without one
     return {"offset_px": np.array(offsets), "spread_px": np.array(spreads),
             "found": np.array(found),
             "shift_px": shift, "meta": source.meta, "height_m": cal.site.height_m}

@@ -75,7 +75,7 @@ def reference_points(patch: np.ndarray, box: tuple[int, int, int, int], origin: 
     energy = cv2.boxFilter(gx2, -1, (window, window), normalize=False, borderType=cv2.BORDER_CONSTANT)
     r1 = y0 + max(1, int(math.ceil(UPPER_SHARE * (y1 - y0))))
     sub = energy[y0 - oy:r1 - oy, x0 - ox:x1 - ox].copy()
-    out = []
+    out: list[tuple[float, float]] = []
     for _ in range(count):
         iy, ix = np.unravel_index(int(np.argmax(sub)), sub.shape)
         if out and sub[iy, ix] <= 0.0:

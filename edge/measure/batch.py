@@ -22,6 +22,7 @@ import math
 from collections import defaultdict
 from collections.abc import Generator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -150,7 +151,7 @@ def answer_all(requests: Sequence[Request]) -> list[PointTrack | Match]:
     for i, r in enumerate(requests):
         groups[(type(r), r.settings)].append(i)
     for (kind, s), idx in groups.items():
-        rs = [requests[i] for i in idx]
+        rs: list[Any] = [requests[i] for i in idx]  # all Follow or all StereoMatch, as `kind` says
         if len(rs) < BATCH_MIN[kind.__name__]:        # too few to repay the batch's fixed cost
             answers = [r.run() for r in rs]
         elif kind is Follow:

@@ -8,6 +8,8 @@ All tracks against all detections in one array operation: a Python loop over the
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 
@@ -25,7 +27,7 @@ def overlaps(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where((inter <= 0) | apart, 0.0, iou)
 
 
-def inside(boxes: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def inside(boxes: np.ndarray, u: np.ndarray | Sequence[float], v: np.ndarray | Sequence[float]) -> np.ndarray:
     """Whether each point (u[i], v[i]) lies in each box of `boxes` (m, 4): an (n, m) array."""
     u, v = np.asarray(u, float)[:, None], np.asarray(v, float)[:, None]
     return (boxes[:, 0] <= u) & (u < boxes[:, 2]) & (boxes[:, 1] <= v) & (v < boxes[:, 3])

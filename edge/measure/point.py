@@ -31,17 +31,19 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import replace
 
 import numpy as np
 
 from edge.core.linefit import line_fit, median, slope_sigma
+from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
 from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2, MAX_SHIP_SPEED_MPS
 from edge.measure.batch import (
     Follow,
+    Request,
     Steps,
     follow_settings,
     match_settings,
@@ -166,13 +168,16 @@ class TrackPoint(PointFilter):
             if guided is None:
                 pu = self.u + own
                 if abs(pu - self.template_at[2]) > self.template_reach:
+                    assert self.last_left is not None  # a template is taken only after a measured pair
                     self._take_template(self.last_left, rect)  # moved too far for the kept patch
                 found, origin = (yield self._follow(left, rect, pu)), self.template_at[:2]
                 if not found.valid and hint is not None and abs(hint - own) > FOLLOW_GATE_PX:
                     guided = self._guided_follow(left, rect, hint)  # the motion changed: where the box went
             if guided is not None:
+                assert hint is not None  # a guided follow searches around the box's step
                 pu = self.u + hint
                 found, origin = (yield guided[0]), guided[1]
+            assert isinstance(found, PointTrack)  # the answer to a Follow
             if not found.valid:  # no sure match (flat, ambiguous): carry the point on its motion
                 self.follow_failures += 1
                 self.u = pu
@@ -206,6 +211,7 @@ class TrackPoint(PointFilter):
             return False  # without a prediction any point would do: better lose the track than jump
         pred = None if prediction is None else prediction[0]
         m = yield stereo_request(self.s, left, right, rect, u, v, pred, self.match_settings)
+        assert isinstance(m, Match)  # the answer to a StereoMatch
         if prediction is not None:
             tolerance = self.s.gate_sigma * math.hypot(prediction[1], self.noise_px)
             if not (m.valid and abs(m.disparity_px - prediction[0]) <= tolerance):
@@ -237,6 +243,7 @@ class TrackPoint(PointFilter):
         """Find the kept template's point in this pair with the core's sub-pixel point tracker
         (`edge.core.track_point`), searched around the predicted column `pu`."""
         x0, y0, tx, ty = self.template_at
+        assert self.template is not None  # only followed with a template
         h_patch, w_patch = self.template.shape
         current = rect.patch(left, 0, x0, y0, w_patch, h_patch)
         return Follow(self.template, current, tx - x0, ty - y0, pu - tx, self.follow_settings)
@@ -305,7 +312,8 @@ class TrackPoint(PointFilter):
         self.template_age = 0
         self.follow_costs.clear()
 
-    def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> Steps:
+    def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier
+                 ) -> Generator[Request, PointTrack | Match, None]:
         self.last_left, self.last_left_frame = left, self.frame
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
@@ -317,6 +325,7 @@ class TrackPoint(PointFilter):
             self._take_template(left, rect)
         m = yield stereo_request(self.s, left, right, rect, self.u, self.v, self.predicted_disparity(),
                                  self.match_settings)
+        assert isinstance(m, Match)  # the answer to a StereoMatch
         self.match = m
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)

@@ -23,6 +23,8 @@ class Designs:
     (edge.measure.pointfilter, factors of 2), so the gate and the reported sigma fit the data actually seen;
     and the acceleration rung of its disparity (`accel_rung`)."""
 
+    _tables: dict[tuple[float, float], KalmanDesign]  # (sigma_px, accel_pxps2) -> design
+
     def __init__(self, s: PointSettings) -> None:
         self.s, self._tables = s, {}
 

@@ -42,6 +42,7 @@ from scipy.optimize import linear_sum_assignment
 
 from edge.core.geo import height_above_sea_m
 from edge.core.linefit import median
+from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.triangulation import triangulate_normalised
 from edge.fix import TrackStatus
@@ -137,8 +138,9 @@ class TrackTable:
         if boxes:
             self._box_steps(boxes, skipped)
         # every track's follow and match of this pair batched (edge.measure.batch; = point.step per track)
+        # the lambda's default binds each track (mypy cannot infer a lambda with a default)
         steps = [t.point.steps(left, right, self.rect, skipped,
-                               lambda t=t: self._candidates(left, t.box, window=t.point.s.window))
+                               lambda t=t: self._candidates(left, t.box, window=t.point.s.window))  # type: ignore[misc]
                  for t in self.tracks]
         for track, alive in zip(self.tracks, step_points(steps), strict=True):
             du, dv = track.point.jumped
@@ -369,6 +371,7 @@ class TrackTable:
         answers = answer_all(requests)
         out: list[float | None] = []
         for above, below in zip(answers[0::2], answers[1::2], strict=True):
+            assert isinstance(above, Match) and isinstance(below, Match)  # answers to StereoMatches
             ok = above.valid and below.valid
             out.append((below.disparity_px - above.disparity_px) / (2 * SLOPE_ROWS) if ok else None)
         return out
@@ -382,6 +385,7 @@ class TrackTable:
         triangulated point (eq. 4.1) against the curved sea below it; its 1-sigma is the range
         error's share plus ROW_SIGMA_PX of the row."""
         f, b = self.rect.f_px, self.rect.rig.baseline_m
+        assert p.disparity is not None  # asked only of a point with a filtered disparity
         xy_left = self.rect.rect_to_normalised(np.array([p.u, p.v]))
         point = triangulate_normalised(xy_left, xy_left - np.array([p.disparity / f, 0.0]), b)  # eq. 4.1
         height = float(height_above_sea_m(point, self.site_height_m))

@@ -159,6 +159,7 @@ class NmeaScheduler:
         due = [t for t in self._live.values() if t.number is not None
                and now_s - t.last_sent_s >= self.schedule.min_refresh_s]  # fmt: skip
         for track in sorted(due, key=lambda t: (t.last_sent_s, t.fix.track_id)):
+            assert track.number is not None  # due holds numbered tracks only
             group = self._render(track.fix, track.number)
             if group and not self._spend(group, out):
                 break
@@ -238,6 +239,7 @@ class NmeaScheduler:
 
 def schedule_from_config(cfg: NmeaPort | UdpConfig) -> NmeaSchedule:
     """The `NmeaSchedule` of an `outputs.nmea[i]` or `outputs.udp` configuration entry."""
+    sentences: tuple[str, ...]  # the configured kinds, and TXY if proprietary
     sentences, manufacturer = tuple(cfg.sentences), "XXX"
     proprietary = getattr(cfg, "proprietary", None)
     if proprietary is not None and proprietary.enabled:

@@ -57,7 +57,7 @@ def expose(
 ) -> np.ndarray:
     """The 8-bit image one camera records from a radiance image (float32, DN at unit exposure)."""
     gain = spec.exposure * (spec.right_gain if right else 1.0)
-    signal = blur(radiance.astype(np.float32, copy=False), spec.psf_sigma_px) * np.float32(gain)
+    signal: np.ndarray = blur(radiance.astype(np.float32, copy=False), spec.psf_sigma_px) * np.float32(gain)
     if rng is not None and not spec.noise_free:
         sigma2 = np.full(signal.shape, np.float32(spec.read_noise_dn**2), np.float32)
         if spec.shot_noise:

@@ -29,6 +29,7 @@ sphere at each tracked point (for geometry tests, drawn on top), and glints
 
 from __future__ import annotations
 
+import typing
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,7 +120,10 @@ class ViewRenderer:
         gv = r0 - 0.5 + np.arange(2 * h + 1) / 2.0
         gu = c0 - 0.5 + np.arange(2 * w + 1) / 2.0
         uu, vv = np.meshgrid(gu, gv)
-        footprint = {s.index: np.linalg.norm(s.origin - self.rays.origin) / self.rays.focal_px for s in ships}
+        # typing.cast (`cast` here is the ray caster): numpy's stubs type the norm as floating, not float
+        footprint = typing.cast(dict[int, float], {
+            s.index: np.linalg.norm(s.origin - self.rays.origin) / self.rays.focal_px for s in ships
+        })
         grid = self._sample(self.rays.dirs(uu.ravel(), vv.ravel()), ships, footprint)
         shape = (2 * h + 1, 2 * w + 1)
 

@@ -21,6 +21,7 @@ import dataclasses
 import functools
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -75,7 +76,7 @@ class Simulation:
         rig = self.rig
         error = self.scenario.spec.rig_error.right_rotation_deg
         rotation = tuple(a + e for a, e in zip(rig.right.rotation_deg, error, strict=True))
-        true_right = dataclasses.replace(rig.right, rotation_deg=rotation)
+        true_right = dataclasses.replace(rig.right, rotation_deg=rotation)  # type: ignore[type-var]  # a dataclass
         half = rig.baseline_m / 2.0
         return (
             ViewRenderer(CameraRays(rig.left, rig.width, rig.height, -half), self.world),
@@ -88,7 +89,8 @@ class Simulation:
         n = self.scenario.n_frames
         rng = np.random.default_rng([self.seed, 0x7216])
         jitter = np.rint(rng.normal(0.0, spec.trigger.jitter_ns, (n, 2))).astype(np.int64)
-        dropped = (rng.random((n, 2)) < spec.trigger.drop_rate).any(axis=1)
+        # cast: numpy's stubs type .any(axis=...) as bool | ndarray
+        dropped = cast(np.ndarray, (rng.random((n, 2)) < spec.trigger.drop_rate).any(axis=1))
         out, index = [], 0
         for k in range(n):
             t_ns = round(k * 1e9 / spec.fps)

@@ -15,6 +15,7 @@ Heading is the world azimuth of the bow in the XZ plane, from +Z toward +X
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,7 +48,7 @@ class Track:
 
     def __init__(
         self,
-        waypoints_m: list[tuple[float, float]] | np.ndarray,
+        waypoints_m: Sequence[tuple[float, float]] | np.ndarray,
         speeds_mps: list[float] | np.ndarray,
         turn_radius_m: float,
         start_s: float = 0.0,

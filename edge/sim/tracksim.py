@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -105,7 +106,7 @@ class TrackRun:
     t_closest_s: float
 
 
-def kalman_filter_maker(fs_hz: float, sigma_meas_px: float, sigma_a: float, **design_kw: float
+def kalman_filter_maker(fs_hz: float, sigma_meas_px: float, sigma_a: float, **design_kw: Any
                         ) -> Callable[[], Callable[[float | None], tuple[float, float]]]:
     """`make_filter` for `run_track`: a fresh fixed-point Kalman per run, NaN until it has an estimate.
     design_kw go to `design_kalman` (sigma_floor_px, bound_s, ...)."""
