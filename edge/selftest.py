@@ -168,7 +168,9 @@ class Selftest:
             source = plan.open()
         except Exception as exc:  # a device that cannot be opened is this check's answer
             return Check("cameras", FAIL, f"{plan.description}: {exc}", "check the device names, /dev/mast/*")
-        stamps, skews, deadline = [], [], time.monotonic() + CAMERA_WAIT_S
+        stamps: list[int] = []
+        skews: list[int] = []
+        deadline = time.monotonic() + CAMERA_WAIT_S
         try:
             while len(stamps) < CAMERA_PAIRS and time.monotonic() < deadline:
                 pair = source.read()
