@@ -32,8 +32,11 @@ def ioc(direction: int, kind: int | str, nr: int, struct: type | None = None) ->
     """The ioctl request number `_IOC(direction, kind, nr, sizeof(struct))`."""
     kind_value = ord(kind) if isinstance(kind, str) else kind
     size = ctypes.sizeof(struct) if struct is not None else 0
-    return (direction << _IOC_DIRSHIFT) | (kind_value << _IOC_TYPESHIFT) | (nr << _IOC_NRSHIFT) | (
-        size << _IOC_SIZESHIFT
+    return (
+        (direction << _IOC_DIRSHIFT)
+        | (kind_value << _IOC_TYPESHIFT)
+        | (nr << _IOC_NRSHIFT)
+        | (size << _IOC_SIZESHIFT)
     )
 
 

@@ -100,8 +100,13 @@ class SkewStats:
     offset_ns: int  # the offset the pairer corrects for
 
     def as_dict(self) -> dict:
-        return {"pairs": self.pairs, "mean_ms": self.mean_ns / 1e6, "p99_abs_ms": self.p99_abs_ns / 1e6,
-                "max_abs_ms": self.max_abs_ns / 1e6, "offset_ms": self.offset_ns / 1e6}
+        return {
+            "pairs": self.pairs,
+            "mean_ms": self.mean_ns / 1e6,
+            "p99_abs_ms": self.p99_abs_ns / 1e6,
+            "max_abs_ms": self.max_abs_ns / 1e6,
+            "offset_ms": self.offset_ns / 1e6,
+        }
 
 
 class Pairer(Generic[F]):
@@ -202,5 +207,10 @@ class Pairer(Generic[F]):
             return SkewStats(0, 0.0, 0.0, 0, self.offset_ns)
         skews = np.fromiter(self._skews, dtype=np.int64, count=len(self._skews))
         magnitude = np.abs(skews)
-        return SkewStats(len(skews), float(skews.mean()), float(np.percentile(magnitude, 99)),
-                         int(magnitude.max()), self.offset_ns)
+        return SkewStats(
+            len(skews),
+            float(skews.mean()),
+            float(np.percentile(magnitude, 99)),
+            int(magnitude.max()),
+            self.offset_ns,
+        )

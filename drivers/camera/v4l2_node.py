@@ -1,4 +1,4 @@
-"""An open V4L2 device node (video or sub-device) and its controls, addressed by name.
+"""An open V4L2 device node (video or sub-device): errors, what it offers, its controls by name.
 
 `Node(path)` opens the node through the `Kernel` chokepoint (drivers/kernel.py)
 and maps errno to this driver's errors, each carrying the device path:
@@ -139,6 +139,53 @@ class Node:
             return exc.errno or -1
         return 0
 
+    def try_ioctl_quiet(self, request: int, arg) -> int:
+        """The ioctl with every failure swallowed (teardown of a device that may be gone); the errno or 0."""
+        try:
+            return self.try_ioctl(request, arg)
+        except CameraGone as exc:
+            return exc.errno or -1
+
+    # --- formats --------------------------------------------------------------------------------
+
+    def offered_formats(self) -> dict[str, list[str]]:
+        """Pixel format -> its frame sizes ('WxH', or 'WxH..WxH' ranges): ENUM_FMT, ENUM_FRAMESIZES."""
+        out: dict[str, list[str]] = {}
+        for index in range(64):
+            desc = abi.v4l2_fmtdesc(index=index, type=abi.BUF_TYPE_VIDEO_CAPTURE)
+            if self.try_ioctl(abi.VIDIOC_ENUM_FMT, desc):
+                break
+            out[abi.fourcc_str(desc.pixelformat)] = self._sizes(desc.pixelformat)
+        return out
+
+    def _sizes(self, code: int) -> list[str]:
+        sizes = []
+        for index in range(256):
+            fs = abi.v4l2_frmsizeenum(index=index, pixel_format=code)
+            if self.try_ioctl(abi.VIDIOC_ENUM_FRAMESIZES, fs):
+                break
+            if fs.type == abi.FRMSIZE_TYPE_DISCRETE:
+                sizes.append(f"{fs.discrete.width}x{fs.discrete.height}")
+            else:
+                s = fs.stepwise
+                sizes.append(f"{s.min_width}x{s.min_height}..{s.max_width}x{s.max_height}")
+                break
+        return sizes
+
+    def offered_rates(self, code: int, width: int, height: int) -> str:
+        """The frame rates offered for a format and size (ENUM_FRAMEINTERVALS), as text."""
+        rates = []
+        for index in range(64):
+            fi = abi.v4l2_frmivalenum(index=index, pixel_format=code, width=width, height=height)
+            if self.try_ioctl(abi.VIDIOC_ENUM_FRAMEINTERVALS, fi):
+                break
+            if fi.type != abi.FRMIVAL_TYPE_DISCRETE:
+                lo, hi = fi.stepwise.max, fi.stepwise.min
+                rates.append(f"{lo.denominator / lo.numerator:g}..{hi.denominator / hi.numerator:g} fps")
+                break
+            rates.append(f"{fi.discrete.denominator / fi.discrete.numerator:g} fps")
+        return ", ".join(rates) or "nothing enumerated"
+
     # --- controls -------------------------------------------------------------------------------
 
     @property
@@ -160,8 +207,20 @@ class Node:
         while True:
             if q.type != abi.CTRL_TYPE_CTRL_CLASS and not q.flags & abi.CTRL_FLAG_DISABLED:
                 label = q.name.decode("utf-8", "replace")
-                found.append(Control(q.id, normalise_name(label), label, q.type, q.minimum, q.maximum,
-                                     q.step, q.default_value, q.flags, self._menu(q)))
+                found.append(
+                    Control(
+                        q.id,
+                        normalise_name(label),
+                        label,
+                        q.type,
+                        q.minimum,
+                        q.maximum,
+                        q.step,
+                        q.default_value,
+                        q.flags,
+                        self._menu(q),
+                    )
+                )
             next_id = q.id | abi.CTRL_FLAG_NEXT_CTRL
             q = type(q)(id=next_id)
             if self.try_ioctl(request, q) != 0:
@@ -174,8 +233,9 @@ class Node:
         for index in range(q.minimum, q.maximum + 1):
             m = abi.v4l2_querymenu(id=q.id, index=index)
             if self.try_ioctl(abi.VIDIOC_QUERYMENU, m) == 0:  # drivers may skip indexes (EINVAL)
-                items[index] = m.value if q.type == abi.CTRL_TYPE_INTEGER_MENU else m.name.decode(
-                    "utf-8", "replace")
+                items[index] = (
+                    m.value if q.type == abi.CTRL_TYPE_INTEGER_MENU else m.name.decode("utf-8", "replace")
+                )
         return items
 
     def control(self, name: str) -> Control:
@@ -262,6 +322,14 @@ def _parse_bool(value: object) -> bool | None:
     if isinstance(value, int):
         return bool(value) if value in (0, 1) else None
     if isinstance(value, str):
-        return {"true": True, "on": True, "yes": True, "1": True,
-                "false": False, "off": False, "no": False, "0": False}.get(value.strip().lower())
+        return {
+            "true": True,
+            "on": True,
+            "yes": True,
+            "1": True,
+            "false": False,
+            "off": False,
+            "no": False,
+            "0": False,
+        }.get(value.strip().lower())
     return None
