@@ -1,0 +1,161 @@
+"""The Trigger contract, and the absolute-deadline pulse loop shared by the GPIO and virtual generators.
+
+A `Trigger` tells the pair source three things: how to set each camera up
+(`configure_camera`, called after every open, so a reconnected camera is armed
+again; `release_camera` at close), whether it drives pulses itself
+(`start()`/`stop()`), and what to expect: `period_ns` (the pairer's tolerance
+is half of it) and `synchronised` (False for free-running cameras, whose
+relative phase drifts, so the pairer must not track an offset).
+
+`PulseLoop` schedules pulse k at start + k x period on CLOCK_MONOTONIC and
+sleeps to absolute deadlines, so wake-up latency never accumulates into the
+rate; a pulse whose rising edge would be more than `late_limit` of a period late is
+skipped (counted in `missed`) rather than bunched up behind the previous one.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import ClassVar, Protocol
+
+
+class ControlTarget(Protocol):
+    """What a trigger adapter needs from a camera (V4L2Camera has these)."""
+
+    path: str
+
+    def set_control(self, name: str, value: object) -> int: ...
+
+    def has_control(self, name: str) -> bool: ...
+
+
+class CameraSetup(Protocol):
+    def apply(self, camera: ControlTarget) -> None: ...
+
+    def release(self, camera: ControlTarget) -> None: ...
+
+    def describe(self) -> str: ...
+
+
+class Trigger:
+    """Base class: a nominal rate, an optional per-camera setup, no pulses of its own."""
+
+    kind: ClassVar[str] = "abstract"
+    synchronised: ClassVar[bool] = True
+
+    def __init__(self, rate_hz: float, *, camera_setup: CameraSetup | None = None) -> None:
+        if not rate_hz > 0:
+            raise ValueError(f"{self.kind} trigger needs a positive rate_hz, not {rate_hz!r}")
+        self.rate_hz = float(rate_hz)
+        self.camera_setup = camera_setup
+        self.running = False
+
+    @property
+    def period_ns(self) -> int:
+        """The expected interval between pulses (between frames, for free-running cameras)."""
+        return round(1e9 / self.rate_hz)
+
+    def configure_camera(self, side: str, camera: ControlTarget) -> None:
+        """Put a freshly opened camera into this trigger's mode (before STREAMON)."""
+        if self.camera_setup is not None:
+            self.camera_setup.apply(camera)
+
+    def release_camera(self, side: str, camera: ControlTarget) -> None:
+        if self.camera_setup is not None:
+            self.camera_setup.release(camera)
+
+    def start(self) -> None:
+        self.running = True
+
+    def stop(self) -> None:
+        self.running = False
+
+    def describe(self) -> str:
+        setup = f", cameras: {self.camera_setup.describe()}" if self.camera_setup else ""
+        return f"{self.kind} at {self.rate_hz:g} Hz{setup}"
+
+    @property
+    def stats(self) -> dict:
+        return {"kind": self.kind, "rate_hz": self.rate_hz}
+
+
+class PulseLoop:
+    """Calls `rise(t_ns)` and, `width_ns` later, `fall()` at start + k x period, from its own thread."""
+
+    def __init__(
+        self,
+        period_ns: int,
+        width_ns: int,
+        rise: Callable[[int], None],
+        fall: Callable[[], None] | None = None,
+        *,
+        name: str = "pulses",
+        late_limit: float = 0.5,
+        clock: Callable[[], int] = time.monotonic_ns,
+        wait: Callable[[float], bool] | None = None,
+    ) -> None:
+        if not 0 <= width_ns < period_ns:
+            raise ValueError("the pulse width must be shorter than the period")
+        self.period_ns, self.width_ns, self.late_limit = period_ns, width_ns, late_limit
+        self._rise, self._fall, self._clock = rise, fall, clock
+        self._stop = threading.Event()
+        self._wait = wait or self._stop.wait
+        self._thread: threading.Thread | None = None
+        self._name = name
+        self.pulses = self.missed = 0
+        self.lateness_ns: deque[int] = deque(maxlen=1024)  # rising edge issued minus its deadline
+        self.t0_ns = 0
+
+    def _sleep_until(self, deadline_ns: int) -> bool:
+        """Sleep to an absolute deadline; False if stopped meanwhile."""
+        while (left := deadline_ns - self._clock()) > 0:
+            if self._wait(left / 1e9):
+                return False
+        return not self._stop.is_set()
+
+    def run(self, max_pulses: int | None = None, lead_ns: int = 5_000_000) -> None:
+        """The loop (the thread's body; tests call it directly with a fake clock)."""
+        self.t0_ns = self._clock() + lead_ns
+        k = 0
+        while max_pulses is None or self.pulses + self.missed < max_pulses:
+            rise_at = self.t0_ns + k * self.period_ns
+            if not self._sleep_until(rise_at):
+                return
+            late = self._clock() - rise_at
+            if late > self.late_limit * self.period_ns:
+                behind = late // self.period_ns + 1  # skip to the next pulse still ahead
+                self.missed += behind
+                k += behind
+                continue
+            self._rise(rise_at)
+            self.pulses += 1
+            self.lateness_ns.append(late)
+            if self._fall is not None:
+                self._sleep_until(rise_at + self.width_ns)
+                self._fall()
+            k += 1
+
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self.run, name=self._name, daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+            self._thread = None
+
+    @property
+    def stats(self) -> dict:
+        late = sorted(self.lateness_ns)
+        return {
+            "pulses": self.pulses,
+            "missed": self.missed,
+            "late_p99_us": late[int(0.99 * (len(late) - 1))] / 1e3 if late else 0.0,
+        }
