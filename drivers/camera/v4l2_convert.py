@@ -20,7 +20,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from drivers.camera.v4l2_abi import fourcc
@@ -61,6 +60,8 @@ def to_grey(
 ) -> np.ndarray:
     """The (height, width) uint8 grey image in `data` (uint8, the buffer's used bytes)."""
     if fmt.bytes_per_pixel == 0:
+        import cv2  # only MJPEG needs it; importing it costs ~10 s under the test VM's emulation
+
         image = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
         if image is None or image.shape != (height, width):
             got = "nothing" if image is None else f"{image.shape[1]}x{image.shape[0]}"

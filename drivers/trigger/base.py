@@ -10,7 +10,9 @@ relative phase drifts, so the pairer must not track an offset).
 `PulseLoop` schedules pulse k at start + k x period on CLOCK_MONOTONIC and
 sleeps to absolute deadlines, so wake-up latency never accumulates into the
 rate; a pulse whose rising edge would be more than `late_limit` of a period late is
-skipped (counted in `missed`) rather than bunched up behind the previous one.
+skipped (counted in `missed`) rather than bunched up behind the previous one. The
+falling edge comes `width_ns` after the rising edge was actually issued, so a
+late pulse is still a full-width pulse the camera registers.
 """
 
 from __future__ import annotations
@@ -131,10 +133,11 @@ class PulseLoop:
                 k += behind
                 continue
             self._rise(rise_at)
+            risen = self._clock()
             self.pulses += 1
             self.lateness_ns.append(late)
-            if self._fall is not None:
-                self._sleep_until(rise_at + self.width_ns)
+            if self._fall is not None:  # the full width from the actual edge: a late pulse is never a runt
+                self._sleep_until(risen + self.width_ns)
                 self._fall()
             k += 1
 
