@@ -9,19 +9,28 @@ relative phase drifts, so the pairer must not track an offset).
 
 `PulseLoop` schedules pulse k at start + k x period on CLOCK_MONOTONIC and
 sleeps to absolute deadlines, so wake-up latency never accumulates into the
-rate; a pulse whose rising edge would be more than `late_limit` of a period late is
+rate; it wakes early by the median latency of its last wake-ups, so a steady
+latency (a loaded CPU, a slow timer) does not show as late edges or long pulses;
+a pulse whose rising edge would be more than `late_limit` of a period late is
 skipped (counted in `missed`) rather than bunched up behind the previous one. The
 falling edge comes `width_ns` after the rising edge was actually issued, so a
-late pulse is still a full-width pulse the camera registers.
+late pulse is still a full-width pulse the camera registers. `priority` runs the
+loop's thread SCHED_FIFO at that priority (needs CAP_SYS_NICE; warned and
+ignored without), which keeps other work on a busy mast computer from delaying edges.
 """
 
 from __future__ import annotations
 
+import logging
+import os
+import statistics
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
 from typing import ClassVar, Protocol
+
+log = logging.getLogger(__name__)
 
 
 class ControlTarget(Protocol):
@@ -96,6 +105,7 @@ class PulseLoop:
         *,
         name: str = "pulses",
         late_limit: float = 0.5,
+        priority: int | None = None,
         clock: Callable[[], int] = time.monotonic_ns,
         wait: Callable[[float], bool] | None = None,
     ) -> None:
@@ -106,16 +116,20 @@ class PulseLoop:
         self._stop = threading.Event()
         self._wait = wait or self._stop.wait
         self._thread: threading.Thread | None = None
-        self._name = name
+        self._name, self.priority = name, priority
         self.pulses = self.missed = 0
         self.lateness_ns: deque[int] = deque(maxlen=1024)  # rising edge issued minus its deadline
+        self._wakeups: deque[int] = deque(maxlen=15)  # how late the recent wake-ups came, ns
         self.t0_ns = 0
 
     def _sleep_until(self, deadline_ns: int) -> bool:
-        """Sleep to an absolute deadline; False if stopped meanwhile."""
-        while (left := deadline_ns - self._clock()) > 0:
+        """Sleep to an absolute deadline, waking early by the recent wake-up latency; False if stopped."""
+        lead = min(int(statistics.median(self._wakeups)) if self._wakeups else 0, self.period_ns // 10)
+        wake_at = deadline_ns - lead
+        while (left := wake_at - self._clock()) > 0:
             if self._wait(left / 1e9):
                 return False
+        self._wakeups.append(max(0, self._clock() - wake_at))
         return not self._stop.is_set()
 
     def run(self, max_pulses: int | None = None, lead_ns: int = 5_000_000) -> None:
@@ -141,11 +155,24 @@ class PulseLoop:
                 self._fall()
             k += 1
 
+    def _thread_main(self) -> None:
+        if self.priority is not None:
+            try:  # SCHED_FIFO for this thread only: edges on time even when the CPU is busy
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.priority))
+            except (OSError, AttributeError) as exc:
+                log.warning(
+                    "%s: no real-time priority %d (%s); running at normal priority",
+                    self._name,
+                    self.priority,
+                    exc,
+                )
+        self.run()
+
     def start(self) -> None:
         if self._thread is not None:
             return
         self._stop.clear()
-        self._thread = threading.Thread(target=self.run, name=self._name, daemon=True)
+        self._thread = threading.Thread(target=self._thread_main, name=self._name, daemon=True)
         self._thread.start()
 
     def stop(self) -> None:
@@ -161,4 +188,5 @@ class PulseLoop:
             "pulses": self.pulses,
             "missed": self.missed,
             "late_p99_us": late[int(0.99 * (len(late) - 1))] / 1e3 if late else 0.0,
+            "wakeup_lead_us": statistics.median(self._wakeups) / 1e3 if self._wakeups else 0.0,
         }

@@ -9,6 +9,7 @@ trigger:
   line: 17
   pulse_width_ms: 2
   active_low: false
+  realtime_priority: 50          # gpio only, optional: SCHED_FIFO for the pulse thread
 ```
 Unknown keys are refused with their names, so a typo cannot silently free-run a camera.
 """
@@ -27,7 +28,16 @@ KEYS = {
     "none": {"kind", "rate_hz"},
     "external": {"kind", "rate_hz", "camera"},
     "controls": {"kind", "rate_hz", "camera"},
-    "gpio": {"kind", "rate_hz", "camera", "chip", "line", "pulse_width_ms", "active_low"},
+    "gpio": {
+        "kind",
+        "rate_hz",
+        "camera",
+        "chip",
+        "line",
+        "pulse_width_ms",
+        "active_low",
+        "realtime_priority",
+    },
 }
 
 

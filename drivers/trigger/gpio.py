@@ -11,6 +11,8 @@ counted (`stats["missed"]`). No libgpiod: the structs are a few lines of
 ctypes, and all calls go through the `Kernel` chokepoint (tests fake the
 chip). Sysfs GPIO (/sys/class/gpio) is deprecated and not supported.
 
+`realtime_priority` (1-99) runs the pulse thread SCHED_FIFO (the unit grants
+CAP_SYS_NICE or LimitRTPRIO); without it the edges jitter with the CPU load.
 The line is released (driven inactive, fd closed) on stop(). Optionally a
 `camera_setup` (controls.TriggerControls) arms the cameras for the pulses.
 """
@@ -125,6 +127,7 @@ class GpioTrigger(Trigger):
         *,
         pulse_width_s: float = 0.001,
         active_low: bool = False,
+        realtime_priority: int | None = None,
         consumer: str = "mast-stereo trigger",
         camera_setup: CameraSetup | None = None,
         kernel: Kernel = LINUX,

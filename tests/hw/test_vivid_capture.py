@@ -42,11 +42,16 @@ def test_two_cameras_capture_with_sequence_and_monotonic_timestamps() -> None:
             got = frames[side]
             assert all(f is not None for f in got)
             seqs = [f.sequence for f in got]
-            assert seqs == sorted(seqs) and cam.dropped == seqs[-1] - seqs[0] - (len(seqs) - 1)
+            steps = [b - a for a, b in zip(seqs, seqs[1:], strict=False)]
+            # a gap of n is n-1 drops; vivid on a starved emulator sometimes repeats a number
+            assert all(st >= 0 for st in steps) and cam.dropped == sum(st - 1 for st in steps if st > 0)
+            assert cam.tracker.repeats == steps.count(0)
             assert all(f.clock == "monotonic" and f.source == "eof" for f in got)
             # vivid stamps start + sequence x period: ~33 ms per sequence step
             per_step = [
-                (b.t_ns - a.t_ns) / (b.sequence - a.sequence) for a, b in zip(got, got[1:], strict=False)
+                (b.t_ns - a.t_ns) / (b.sequence - a.sequence)
+                for a, b in zip(got, got[1:], strict=False)
+                if b.sequence != a.sequence
             ]
             assert abs(statistics.median(per_step) - 1e9 / FPS) < 2e6
             assert cam.t_streamon_ns - 1e9 < got[0].t_ns < now + 1e9
