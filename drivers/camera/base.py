@@ -14,8 +14,8 @@ Live sources also give each pair ``realtime_offset_ns`` (CLOCK_REALTIME minus
 CLOCK_MONOTONIC, sampled as the pair is made), so ``t_utc_ns`` = the exposure
 instant in UTC even if NTP steps the wall clock between exposure and output.
 
-Real implementations: `v4l2.py` (two V4L2 cameras), `replay.py` (a recording
-directory); the virtual one, `virtual.py`, wraps a generator such as the
+Real implementations: `v4l2_pair.py` (two V4L2 cameras and a trigger), `replay.py`
+(a recording directory); the virtual one, `virtual.py`, wraps a generator such as the
 simulator. Drivers never import `edge`.
 """
 

@@ -15,6 +15,7 @@ becomes dequeueable. `device.drop_next(n)` makes the next n frames vanish
 (their sequence numbers are skipped, as a driver that dropped them reports);
 `device.unplug()` makes every ioctl fail with ENODEV and poll report
 POLLERR|POLLHUP until `replug()`; `device.log` records the ioctl names.
+`alvium_trigger_controls()` gives a device an Alvium-shaped trigger control set.
 """
 
 from __future__ import annotations
@@ -51,6 +52,33 @@ class FakeControl:
     menu: dict[int, str] = field(default_factory=dict)
     value: int | None = None
     presses: int = 0  # buttons
+
+
+def menu_control(cid: int, label: str, items: list[str], default: int = 0) -> FakeControl:
+    return FakeControl(
+        cid,
+        label,
+        type=abi.CTRL_TYPE_MENU,
+        maximum=len(items) - 1,
+        menu=dict(enumerate(items)),
+        default=default,
+    )
+
+
+def alvium_trigger_controls() -> list[FakeControl]:
+    """Fresh controls shaped like an Alvium's trigger set (camera-class ids +47..+50)."""
+    return [
+        FakeControl(0x009A092F, "Trigger Mode", type=abi.CTRL_TYPE_BOOLEAN, maximum=1),
+        menu_control(
+            0x009A0930,
+            "Trigger Activation",
+            ["Rising Edge", "Falling Edge", "Any Edge", "Level High", "Level Low"],
+        ),
+        menu_control(0x009A0931, "Trigger Source", ["Line0", "Line1", "Line2", "Line3", "Software"], 4),
+        FakeControl(
+            0x009A0932, "Trigger Software", type=abi.CTRL_TYPE_BUTTON, flags=abi.CTRL_FLAG_WRITE_ONLY
+        ),
+    ]
 
 
 def _oserror(code: int) -> OSError:

@@ -173,7 +173,9 @@ class V4L2PairSource(FramePairSource):
         while not self._stop.is_set():
             try:
                 camera = self._open(settings)
-            except DeviceError as exc:
+            except Exception as exc:  # any failure is this camera's fault state, retried
+                if not isinstance(exc, DeviceError):
+                    log.exception("camera %s: unexpected error opening %s", name, settings.device)
                 self._fault(side, str(exc))
                 self._stop.wait(backoff)
                 backoff = min(backoff * 2, self.backoff_s[1])
@@ -187,7 +189,9 @@ class V4L2PairSource(FramePairSource):
                     frame = camera.read(self.poll_s)
                     if frame is not None:
                         self._on_frame(side, frame)
-            except DeviceError as exc:  # CameraGone included: reopen after the backoff
+            except Exception as exc:  # CameraGone and the rest: reopen after the backoff
+                if not isinstance(exc, DeviceError):
+                    log.exception("camera %s: unexpected error streaming %s", name, settings.device)
                 self._fault(side, str(exc))
             finally:
                 self._closed_camera(side, camera)

@@ -15,22 +15,14 @@ import pytest
 
 from drivers.camera import v4l2_abi as abi
 from drivers.camera.v4l2 import CameraGone, CameraSettings, ControlError, DeviceError, FormatError, V4L2Camera
-from drivers.camera.v4l2_fake import FakeControl, FakeDevice, FakeKernel
+from drivers.camera.v4l2_fake import FakeControl, FakeDevice, FakeKernel, alvium_trigger_controls
 from drivers.camera.v4l2_node import Node, normalise_name
 
 MS = 1_000_000
 CONTROLS = [
     FakeControl(0x00980900, "Brightness", minimum=0, maximum=255, default=128),
     FakeControl(0x009A0902, "Exposure Time, Absolute", minimum=1, maximum=10000, default=100),
-    FakeControl(0x009A092F, "Trigger Mode", type=abi.CTRL_TYPE_BOOLEAN, maximum=1),
-    FakeControl(
-        0x009A0930,
-        "Trigger Activation",
-        type=abi.CTRL_TYPE_MENU,
-        maximum=4,
-        menu={0: "Rising Edge", 1: "Falling Edge", 2: "Any Edge", 3: "Level High", 4: "Level Low"},
-    ),
-    FakeControl(0x009A0932, "Trigger Software", type=abi.CTRL_TYPE_BUTTON, flags=abi.CTRL_FLAG_WRITE_ONLY),
+    *alvium_trigger_controls(),
     FakeControl(0x009A0940, "Pixel Rate", type=abi.CTRL_TYPE_INTEGER64, maximum=1 << 40),
     FakeControl(0x00F0F000, "Sensor Temp", flags=abi.CTRL_FLAG_READ_ONLY, default=40),
 ]
