@@ -24,6 +24,23 @@ if ((${#missing[@]})); then
     fi
 fi
 
+# The appliance VM for tests/vm (qemu + Debian's kernel with vivid, gpio-sim and uleds), built outside
+# the repository by the shared harness when its artifacts are missing; tests/vm/vmharness.py runs it.
+VM_HARNESS="$ROOT/../shared/tools/appliance-vm"
+VM_DIR="${V4L2VM_DIR:-/var/tmp/appliance-vm}"
+if [[ -x "$VM_HARNESS/build.sh" ]]; then
+    if [[ ! -e "$VM_DIR/vmlinuz" || ! -e "$VM_DIR/initramfs.cpio.gz" || ! -s "$VM_DIR/kmods/gpio-sim.ko" ]] \
+        || ! grep -qx gpio-sim.ko "$VM_DIR/initramfs/etc/modules.list" 2>/dev/null \
+        || ! command -v qemu-system-x86_64 >/dev/null; then
+        if [[ $(id -u) -eq 0 ]]; then
+            echo "setup: building the appliance VM in $VM_DIR (once; ~30 s)" >&2
+            V4L2VM_DIR="$VM_DIR" V4L2VM_KMODS=1 "$VM_HARNESS/build.sh" >&2
+        else
+            echo "setup: the appliance VM is not built in $VM_DIR; run as root once (tests/vm will skip)" >&2
+        fi
+    fi
+fi
+
 PY="${PYTHON:-}"
 if [[ -z "$PY" ]]; then
     for c in python3.13 python3.12 python3.11 python3; do

@@ -10,9 +10,13 @@ trigger skew and dropped frames), plus two counters:
 - ``dropped``: pairs the source knows were never produced or were thrown away
   (gaps in the sequence numbers, frames abandoned to keep up in real time).
 
-Implementations: `replay.py` (a recording directory, at its recorded pace or
-as fast as read) and the virtual one, `virtual.py`, which wraps a generator
-such as the simulator. Drivers never import `edge`.
+Live sources also give each pair ``realtime_offset_ns`` (CLOCK_REALTIME minus
+CLOCK_MONOTONIC, sampled as the pair is made), so ``t_utc_ns`` = the exposure
+instant in UTC even if NTP steps the wall clock between exposure and output.
+
+Implementations: `v4l2_pair.py` (two V4L2 cameras and a trigger), `replay.py`
+(a recording directory, at its recorded pace or as fast as read); the virtual one, `virtual.py`, wraps a generator such as the
+simulator. Drivers never import `edge`.
 """
 
 from __future__ import annotations
@@ -36,11 +40,18 @@ class FramePair:
     seq_right: int
     t_left_ns: int  # each camera's exposure timestamp, same clock as t_ns
     t_right_ns: int
+    # live sources: CLOCK_REALTIME - CLOCK_MONOTONIC when the pair was made (None: t_ns is not monotonic)
+    realtime_offset_ns: int | None = None
 
     @property
     def skew_ns(self) -> int:
         """Right exposure time minus left: the trigger skew of this pair."""
         return self.t_right_ns - self.t_left_ns
+
+    @property
+    def t_utc_ns(self) -> int | None:
+        """The exposure instant on CLOCK_REALTIME (UTC ns), for live pairs; None otherwise."""
+        return None if self.realtime_offset_ns is None else self.t_ns + self.realtime_offset_ns
 
 
 class FramePairSource(ABC):
