@@ -165,7 +165,7 @@ def test_tools_are_thin_executables_over_the_installed_package(path: Path) -> No
     assert "sys.path" not in source and "PYTHONPATH" not in source, f"{path} edits the import path"
     assert "spec_from_file_location" not in source and "SourceFileLoader" not in source, path
     if source.startswith("#!") and "python" in source.splitlines()[0]:
-        assert source.count("\n") <= 40, f"{path}: put the work in the package, keep the tool a thin entry"
+        assert source.count("\n") <= 60, f"{path}: a tool parses arguments and calls the package"
 
 
 @pytest.mark.parametrize(

@@ -15,8 +15,8 @@ CLOCK_MONOTONIC, sampled as the pair is made), so ``t_utc_ns`` = the exposure
 instant in UTC even if NTP steps the wall clock between exposure and output.
 
 Implementations: `v4l2_pair.py` (two V4L2 cameras and a trigger), `replay.py`
-(a recording directory, at its recorded pace or as fast as read); the virtual one, `virtual.py`, wraps a generator such as the
-simulator. Drivers never import `edge`.
+(a recording directory, at its recorded pace or as fast as read); the virtual
+one, `virtual.py`, wraps a generator such as the simulator. Drivers never import `edge`.
 """
 
 from __future__ import annotations

@@ -72,6 +72,7 @@ def measure(width: int, height: int, fmt: str, pairs: int) -> Row:
             got, used = [], []
             for side in (LEFT, RIGHT):
                 frame = cams[side].read(0.0)
+                assert frame is not None  # the fake always has a frame queued
                 got += pairer.push(side, frame)
                 used.append(frame.index)
             t1 = time.thread_time_ns()

@@ -257,7 +257,7 @@ class V4L2Camera:
             buf = abi.v4l2_buffer(index=index, type=abi.BUF_TYPE_VIDEO_CAPTURE, memory=abi.MEMORY_MMAP)
             self.node.ioctl(abi.VIDIOC_QUERYBUF, buf)
             try:
-                mm = self.kernel.mmap(self.node.fd, buf.length, buf.m.offset)
+                mm = self.kernel.mmap(self.node.open_fd, buf.length, buf.m.offset)
             except OSError as exc:
                 raise DeviceError(self.path, f"mmap of buffer {index} failed ({exc})", exc.errno) from None
             self._maps.append(mm)
@@ -294,7 +294,7 @@ class V4L2Camera:
     def _dequeue_one(self, timeout_s: float) -> Frame | None:
         if self._queued == 0:
             raise DeviceError(self.path, "every buffer is held by the caller: requeue() frames")
-        events = self.kernel.poll(self.node.fd, timeout_s)
+        events = self.kernel.poll(self.node.open_fd, timeout_s)
         if not events:
             return None
         buf = abi.v4l2_buffer(type=abi.BUF_TYPE_VIDEO_CAPTURE, memory=abi.MEMORY_MMAP)

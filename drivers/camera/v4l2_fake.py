@@ -110,7 +110,8 @@ class FakeDevice:
         self.queued: deque[int] = deque()
         self.done: deque[tuple[int, int, int, int, int]] = deque()  # index, bytesused, seq, t_ns, flags
         self.streaming, self.gone, self.sequence, self._drop = False, False, 0, 0
-        self.input, self.log = 0, []
+        self.input = 0
+        self.log: list[str | None] = []  # ioctl names, in order
         self.cond = threading.Condition()
 
     # --- what a test drives ---------------------------------------------------------------------

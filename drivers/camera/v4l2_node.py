@@ -118,6 +118,13 @@ class Node:
     def closed(self) -> bool:
         return self.fd is None
 
+    @property
+    def open_fd(self) -> int:
+        """The descriptor of the open node; DeviceError once it is closed."""
+        if self.fd is None:
+            raise DeviceError(self.path, "device is closed")
+        return self.fd
+
     def ioctl(self, request: int, arg, what: str | None = None) -> None:
         """The ioctl, raising CameraGone for a vanished device and DeviceError for other refusals."""
         if self.fd is None:
@@ -197,6 +204,7 @@ class Node:
 
     def _enumerate(self) -> list[Control]:
         found: list[Control] = []
+        q: abi.v4l2_query_ext_ctrl | abi.v4l2_queryctrl
         q = abi.v4l2_query_ext_ctrl(id=abi.CTRL_FLAG_NEXT_CTRL)
         ext = self.try_ioctl(abi.VIDIOC_QUERY_EXT_CTRL, q) == 0
         if not ext:

@@ -158,6 +158,7 @@ class GpioTrigger(Trigger):
 
     def _set(self, active: int) -> None:
         values = gpio_v2_line_values(bits=active, mask=1)
+        assert self._fd is not None  # start() requested the line
         self.kernel.ioctl(self._fd, GPIO_V2_LINE_SET_VALUES_IOCTL, values)
 
     def _rise(self, t_ns: int) -> None:
