@@ -159,6 +159,10 @@ class Appliance:
         while not stop.is_set():
             try:
                 pair = source.read()
+            except TimeoutError:  # no pair in time (a live source): its cameras say why, below
+                if not source.closed:
+                    self._beat_cameras(source, frames=0)
+                continue
             except Exception as exc:  # a camera fault: count, show in health, keep trying
                 self.capture_errors += 1
                 for stage in ("camera_left", "camera_right"):
@@ -167,11 +171,18 @@ class Appliance:
                 continue
             if pair is None:
                 break
-            self.health.beat("camera_left", frames=1)
-            self.health.beat("camera_right", frames=1)
+            self._beat_cameras(source, frames=1)
             self.queue.put(pair)
         if not stop.is_set():  # the source ended (a finite recording), not stopped or reloaded
             self.queue.end()
+
+    def _beat_cameras(self, source: FramePairSource, frames: int) -> None:
+        """Both camera stages, each with its own fault (a pair needs both, so frames go to both)."""
+        faults = source.camera_faults()
+        if frames == 0 and not any(faults.values()):
+            faults = {side: "no frame pairs (trigger?)" for side in faults}
+        for side, fault in faults.items():
+            self.health.beat(f"camera_{side}", fault=fault, frames=frames)
 
     def _process(self, stop: threading.Event) -> None:
         while not stop.is_set():
@@ -187,6 +198,8 @@ class Appliance:
     def _step(self, pair: FramePair, captured_ns: int) -> None:
         if self.steps == 0 and not self.plan.monotonic_stamps:  # UTC of a recording: now, onwards
             self.pipeline.utc_offset_ns = time.time_ns() - pair.t_ns
+        elif pair.realtime_offset_ns is not None:  # UTC of a live pair: the wall clock at its exposure
+            self.pipeline.utc_offset_ns = pair.realtime_offset_ns
         fixes = self.pipeline.step(pair)
         self.live_fixes, self.last_fixes = len(fixes), fixes
         latency_s = (time.monotonic_ns() - captured_ns) / 1e9  # capture to outputs

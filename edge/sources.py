@@ -8,17 +8,23 @@ CLOCK_MONOTONIC stamps (live cameras) or a recording's own clock. Every mistake 
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from drivers.camera.base import FramePairSource
 from drivers.camera.replay import ReplaySource
-from edge.config.app import AppConfig, ReplayCameras, VirtualCameras
+from drivers.camera.v4l2 import V4L2Camera
+from drivers.camera.v4l2_config import cameras_from_config
+from drivers.camera.v4l2_node import CameraGone, DeviceError
+from edge.config.app import AppConfig, ReplayCameras, V4l2Cameras, VirtualCameras
 from edge.config.calibration import Calibration, recording_calibration
 from edge.errors import ConfigError
 from edge.sim.scenario import load_scenario
 from edge.sim.simulator import live_source
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,5 +63,29 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
             raise ConfigError(root / "meta.yaml", "fps", "a positive frame rate", fps)
         return SourcePlan(lambda: ReplaySource(root, pace=cams.pace, loop=cams.loop),
                           Calibration(cal.rig, site), fps, f"recording {root}", monotonic_stamps=False)
-    raise ConfigError(config_file, "cameras.kind",
-                      "'virtual' or 'replay' (this build has no V4L2 capture driver yet)", cams.kind)
+    return _v4l2_plan(config, cams, config_file)
+
+
+def _v4l2_plan(config: AppConfig, cams: V4l2Cameras, config_file: str | Path | None) -> SourcePlan:
+    """Two V4L2 cameras. Each device present now is opened once and its format negotiated, so a
+    wrong node or a format it does not offer is a configuration error (exit 78) before anything
+    streams; a device that is absent now is a camera fault the pair source retries (DEGRADED)."""
+    assert config.calibration is not None  # config_from_dict requires it for v4l2
+    built = cameras_from_config(cams.block())
+    for side, settings in (("left", built.left), ("right", built.right)):
+        if not Path(settings.device).exists():
+            log.warning("camera %s (%s) is not there yet: it will be retried", side, settings.device)
+            continue
+        try:
+            V4L2Camera(settings).close()
+        except CameraGone:
+            log.warning("camera %s (%s) went away while probed: it will be retried", side, settings.device)
+        except DeviceError as exc:
+            raise ConfigError(config_file, f"cameras.{side}.device", "a V4L2 capture device that offers "
+                              f"{cams.width}x{cams.height} {cams.pixel_format}", str(exc)) from None
+    rate_hz = built.trigger.rate_hz
+    description = (f"v4l2 {built.left.device} + {built.right.device}, {cams.width}x{cams.height} "
+                   f"{cams.pixel_format}, {built.trigger.describe()}")
+    calibration = Calibration(config.calibration.rig, config.effective_site)
+    return SourcePlan(lambda: cameras_from_config(cams.block()).source(), calibration, rate_hz,
+                      description, monotonic_stamps=True)

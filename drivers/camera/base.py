@@ -75,6 +75,11 @@ class FramePairSource(ABC):
     def closed(self) -> bool:
         return self._closed
 
+    def camera_faults(self) -> dict[str, str | None]:
+        """Each camera's current problem ("left"/"right" -> text, None when healthy), for health.
+        Sources without per-camera state report none: their failures surface as exceptions."""
+        return {"left": None, "right": None}
+
     def close(self) -> None:
         """Release files/devices; `read()` returns None afterwards. Safe to call twice."""
         self._closed = True

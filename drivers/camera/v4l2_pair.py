@@ -269,6 +269,17 @@ class V4L2PairSource(FramePairSource):
         since = max(fault.last_frame_ns, fault.since_ns)
         return not fault.faulted and self._clock() - since > self.stall_periods * self.trigger.period_ns
 
+    def camera_faults(self) -> dict[str, str | None]:
+        out: dict[str, str | None] = {}
+        for side, fault in self.faults.items():
+            if fault.faulted:
+                out[side] = fault.reason or "camera not streaming"
+            elif self.stalled(side):
+                out[side] = f"no frames for {self.stall_periods:g} trigger periods"
+            else:
+                out[side] = None
+        return out
+
     @property
     def degraded(self) -> bool:
         return any(f.faulted for f in self.faults.values()) or any(self.stalled(s) for s in SIDES)

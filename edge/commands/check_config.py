@@ -16,7 +16,7 @@ import argparse
 import math
 from pathlib import Path
 
-from edge.config.app import AppConfig, load_config
+from edge.config.app import AppConfig, V4l2Cameras, load_config
 from edge.config.calibration import Calibration, load_calibration
 from edge.core.calibfit import relative_rotation_deg
 from edge.core.site import Site
@@ -55,9 +55,10 @@ def _site(site: Site) -> str:
 
 def describe_config(cfg: AppConfig) -> list[str]:
     cams = cfg.cameras
-    if cams.kind == "v4l2":
-        source = f"v4l2 {cams.left} + {cams.right}, {cams.pixel_format} at {cams.fps:g} fps"
-        source += f", trigger {cams.trigger.kind}"
+    if isinstance(cams, V4l2Cameras):
+        rate = f"{cams.fps:g} fps" if cams.fps is not None else "the trigger's rate"
+        source = (f"v4l2 {cams.left.get('device')} + {cams.right.get('device')}, {cams.width}x{cams.height} "
+                  f"{cams.pixel_format} at {rate}, trigger {cams.trigger.get('kind', 'none')}")
     elif cams.kind == "replay":
         source = f"replay {cams.path}" + (" (paced)" if cams.pace else " (as fast as possible)")
     else:

@@ -19,7 +19,9 @@ and replay the recording's. `site`, when given, overrides the calibration's.
 
 from __future__ import annotations
 
+import dataclasses
 import ipaddress
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -57,25 +59,42 @@ def _odd(value: int) -> str | None:
 
 
 @dataclass(frozen=True)
-class TriggerConfig:
-    kind: Literal["none", "gpio", "virtual"] = setting(
-        "none", doc="external trigger: none (free-running), a GPIO line (chardev) or a virtual one"
-    )
-    chip: str = setting("/dev/gpiochip0", doc="GPIO chip device (kind gpio)")
-    line: int = setting(0, min=0, max=511, doc="GPIO line offset on the chip (kind gpio)")
-    pulse_us: int = setting(1000, min=1, max=100_000, doc="trigger pulse width, microseconds")
-
-
-@dataclass(frozen=True)
 class V4l2Cameras:
+    """Two V4L2 cameras; the driver (`drivers.camera.v4l2_config`) checks the nested blocks
+    (per-camera devices, exposure/gain controls, the trigger) and `config_from_dict` turns its
+    complaints into errors naming the key. Worked examples: config/cameras/*.yaml."""
+
     kind: Literal["v4l2"] = setting("v4l2", doc="two V4L2 capture devices")
-    left: str = setting("/dev/video0", doc="left camera device (a udev stable name is best)")
-    right: str = setting("/dev/video2", doc="right camera device")
-    pixel_format: str = setting("GREY", pattern=r"[0-9A-Z]{3}[0-9A-Z ]", doc="V4L2 fourcc, e.g. GREY, YUYV")
-    fps: float = setting(10.0, positive=True, max=240.0, doc="frame rate (or trigger rate)")
+    left: dict[str, Any] = setting(
+        default_factory=lambda: {"device": "/dev/mast/cam-left"},
+        accepts="a mapping: device, and optionally subdevice, input, controls",
+        doc="left camera: {device: /dev/mast/cam-left} (udev stable names), subdevice for its controls")
+    right: dict[str, Any] = setting(
+        default_factory=lambda: {"device": "/dev/mast/cam-right"},
+        accepts="a mapping: device, and optionally subdevice, input, controls", doc="right camera, as left")
+    width: int = setting(720, min=16, max=16384, doc="image width, px (the calibration's)")
+    height: int = setting(480, min=16, max=16384, doc="image height, px")
+    pixel_format: Literal["GREY", "Y16", "YUYV", "MJPEG"] = setting(
+        "GREY", doc="V4L2 format, converted to 8-bit grey")
+    fps: float | None = setting(None, positive=True, max=240.0,
+                                doc="frame rate to request (S_PARM); null: the trigger sets it")
+    exposure: Any = setting("auto", accepts="'auto' or {control, value[, mode_control, mode_value]}",
+                            doc="exposure by control name, or the camera's automatic")
+    gain: Any = setting("auto", accepts="'auto' or {control, value}",
+                        doc="gain by control name, or automatic")
+    controls: dict[str, Any] = setting(default_factory=dict, doc="other controls for both cameras, by name")
     buffers: int = setting(4, min=2, max=32, doc="V4L2 buffers per camera")
-    max_skew_ms: float = setting(5.0, positive=True, doc="largest left/right timestamp difference of a pair")
-    trigger: TriggerConfig = setting(default_factory=TriggerConfig)
+    skip_frames: int = setting(0, min=0, max=100, doc="frames dropped after each STREAMON (stale ones)")
+    max_skew_ms: float | None = setting(None, positive=True,
+                                        doc="pairing tolerance; null: half the trigger period")
+    trigger: dict[str, Any] = setting(
+        default_factory=lambda: {"kind": "none", "rate_hz": 10.0},
+        accepts="a mapping: kind (controls, gpio, external, none), rate_hz, ...",
+        doc="external trigger (drivers/trigger/config.py; examples in config/cameras/)")
+
+    def block(self) -> dict[str, Any]:
+        """The `cameras:` mapping in the driver's terms."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -254,10 +273,13 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
     cfg = load_dataclass(AppConfig, data, file)
     cams = cfg.cameras
     if isinstance(cams, V4l2Cameras):
+        check_v4l2(cams, file)
         if cfg.calibration is None:
             raise ConfigError(file, "calibration", "a calibration (file path or mapping) for v4l2 cameras")
-        if cams.left == cams.right:
-            raise ConfigError(file, "cameras.right", "a device other than cameras.left", cams.right)
+        rig = cfg.calibration.rig
+        if (rig.width, rig.height) != (cams.width, cams.height):
+            raise ConfigError(file, "cameras.width", f"the calibration's image size {rig.width}x{rig.height}",
+                              f"{cams.width}x{cams.height}")
     elif isinstance(cams, ReplayCameras):
         cfg = replace(cfg, cameras=replace(cams, path=str(resolve_path(file, cams.path))))
     elif cams.scenario.endswith((".yaml", ".yml")):
@@ -273,6 +295,24 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
         outputs = replace(cfg.outputs, tracks_csv=str(resolve_path(file, cfg.outputs.tracks_csv)))
         cfg = replace(cfg, outputs=outputs)
     return cfg
+
+
+def check_v4l2(cams: V4l2Cameras, file: str | Path | None) -> None:
+    """The driver's own checks of the nested blocks, as errors naming file and key (no device opened)."""
+    from drivers.camera.v4l2_config import cameras_from_config
+
+    try:
+        cameras_from_config(cams.block())
+    except (ValueError, TypeError, KeyError) as exc:
+        text = str(exc).strip("'\"")
+        match = re.match(r"(cameras(?:\.[\w\[\]]+)*)[:]?\s+(.*)", text)
+        key, problem = (match.group(1), match.group(2)) if match else ("cameras", text)
+        if key == "cameras" and text.startswith("trigger"):
+            key = "cameras.trigger"
+        raise ConfigError(file, key, f"a valid setting ({problem})") from None
+    if cams.left.get("device") == cams.right.get("device"):
+        raise ConfigError(file, "cameras.right.device", "a device other than cameras.left's",
+                          cams.right.get("device"))
 
 
 def load_config(path: str | Path) -> AppConfig:

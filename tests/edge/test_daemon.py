@@ -207,7 +207,9 @@ def test_a_replayed_recording_reports_utc_now_not_its_own_clock(tmp_path: Path, 
 
 
 @pytest.mark.parametrize("case, text, key", [
-    ("v4l2 without a driver", "cameras: {kind: v4l2}\ncalibration: {}\n", "calibration"),
+    ("v4l2 without a calibration", "cameras: {kind: v4l2}\n", "calibration"),
+    ("v4l2 camera without a device", "cameras: {kind: v4l2, left: {dev: /dev/video0}}\n", "cameras.left"),
+    ("v4l2 unknown trigger", "cameras: {kind: v4l2, trigger: {kind: gpoi}}\n", "cameras.trigger"),
     ("unknown scenario", "cameras: {kind: virtual, scenario: no-such-sea}\n", "no-such-sea"),
     ("bad port", "outputs: {modbus: {tcp: {port: 70000}}}\n", "outputs.modbus.tcp.port"),
 ])

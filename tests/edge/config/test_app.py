@@ -192,7 +192,7 @@ def test_load_yaml_errors(tmp_path: Path) -> None:
 def test_demo_config_is_the_default_and_site_example_loads() -> None:
     assert load_config(ROOT / "config/demo.yaml") == AppConfig()
     cfg = load_config(ROOT / "config/site.example.yaml")
-    assert isinstance(cfg.cameras, V4l2Cameras) and cfg.cameras.trigger.kind == "gpio"
+    assert isinstance(cfg.cameras, V4l2Cameras) and cfg.cameras.trigger["kind"] == "gpio"
     assert cfg.calibration is not None and cfg.calibration.rig.baseline_m == 8.14
     assert cfg.effective_site == cfg.site and cfg.site.heading_deg == 180.0
     assert [p.baud for p in cfg.outputs.nmea] == [38400, 4800]
@@ -247,10 +247,10 @@ def test_inline_calibration_and_site_override(tmp_path: Path) -> None:
         ({"cameras": {"kind": "v4l2"}}, "calibration"),
         (
             {
-                "cameras": {"kind": "v4l2", "left": "/dev/a", "right": "/dev/a"},
+                "cameras": {"kind": "v4l2", "left": {"device": "/dev/a"}, "right": {"device": "/dev/a"}},
                 "calibration": str(ROOT / "config/calibration/akashi-pinhole.yaml"),
             },
-            "cameras.right",
+            "cameras.right.device",
         ),
         ({"outputs": {"nmea": [{"url": "/dev/ttyS1"}, {"url": "/dev/ttyS1"}]}}, "outputs.nmea[1].url"),
         (
@@ -284,7 +284,7 @@ def test_markdown_table_lists_every_leaf_key() -> None:
         "outputs.modbus.rtu.parity",
         "cameras.kind",
         "cameras.scenario",
-        "cameras.trigger.line",
+        "cameras.trigger",
         "outputs.udp.group",
         "health.leds.kind",
         "logging.level",
@@ -350,4 +350,31 @@ def test_cli_unreadable_config_and_missing_calibration_file(tmp_path: Path) -> N
 def test_cli_check_config_ok_prints_a_summary() -> None:
     result = run_cli("check-config", "--config", "config/site.example.yaml")
     assert result.returncode == 0, result.stderr
-    assert "OK" in result.stdout and "/dev/mast-left" in result.stdout and "HFOV 43.0 deg" in result.stdout
+    out = result.stdout
+    assert "OK" in out and "/dev/mast/cam-left" in out and "HFOV 43.0 deg" in out
+
+
+@pytest.mark.parametrize("example", sorted((ROOT / "config/cameras").glob("*.yaml")), ids=lambda p: p.name)
+def test_camera_examples_load_as_the_cameras_block_of_a_config(example: Path, tmp_path: Path) -> None:
+    """Each worked example is a valid `cameras:` block once a calibration of its image size is named;
+    loading it opens no device."""
+    cams = yaml.safe_load(example.read_text())["cameras"]
+    calibration = load_yaml(ROOT / "config/calibration/akashi-pinhole.yaml")
+    calibration["image"] = {"width": cams["width"], "height": cams["height"]}
+    path = tmp_path / "mast.yaml"
+    path.write_text(yaml.safe_dump({"cameras": cams, "calibration": calibration}))
+    cfg = load_config(path)
+    assert isinstance(cfg.cameras, V4l2Cameras) and cfg.cameras.block()["trigger"] == cams["trigger"]
+
+
+def test_v4l2_errors_name_the_nested_key(tmp_path: Path) -> None:
+    path = tmp_path / "mast.yaml"
+    base = {"calibration": str(ROOT / "config/calibration/akashi-pinhole.yaml")}
+    cases = [({"kind": "v4l2", "exposure": {"value": 3}}, "cameras.exposure"),
+             ({"kind": "v4l2", "right": {"device": "/dev/mast/cam-left"}}, "cameras.right.device"),
+             ({"kind": "v4l2", "width": 640}, "cameras.width")]
+    for cams, key in cases:
+        path.write_text(yaml.safe_dump({**base, "cameras": cams}))
+        with pytest.raises(ConfigError) as err:
+            load_config(path)
+        assert err.value.key == key, (cams, str(err.value))
