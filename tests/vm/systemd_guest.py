@@ -1,15 +1,15 @@
 """Runs as root inside the appliance VM under real systemd (rootfs with udev): installs mast-stereo from
 a bundle with tools/install and exercises the installed service; prints `MAST-STEP name {json}` lines.
 
-Usage: python3 systemd_guest.py BUNDLE PROJECT. Steps, each recorded (never aborting the run, so the
-host test reports every finding): real LED class devices (uleds) and a GPIO chip (gpio-sim) as on a
-mast; a rig's udev rules naming the vivid cameras and ttyS1 (/dev/mast/*), which tools/install must
-keep; tools/install --from BUNDLE twice (the second changes nothing); a demo-style config with
-virtual cameras; systemctl start (Type=notify: returns after READY=1) and status; the main process's
-user; the Modbus identity block via mbpoll on port 502; systemd-analyze security; a probe unit with
-the service's exact sandbox that opens cameras, serial ports, GPIO and LEDs and uses numpy/OpenCV
-(and once more without ReadWritePaths, to show what LEDs need); SIGSTOP -> watchdog restart; reload
-(SIGHUP); stop.
+Usage: python3 systemd_guest.py BUNDLE PROJECT RECORDING. Steps, each recorded (never aborting the
+run, so the host test reports every finding): real LED class devices (uleds) and a GPIO chip
+(gpio-sim) as on a mast; a rig's udev rules naming the vivid cameras and ttyS1 (/dev/mast/*), which
+tools/install must keep; tools/install --from BUNDLE twice (the second changes nothing); a config
+replaying a short simulator recording; systemctl start (Type=notify: returns after READY=1) and
+status; the main process's user; the Modbus identity block via mbpoll on port 502; systemd-analyze
+security; a probe unit with the service's exact sandbox that opens cameras, serial ports, GPIO and
+LEDs (and again with other ReadWritePaths, to show what LEDs need); SIGSTOP -> watchdog restart;
+reload (SIGHUP); stop, and the pairs the daemon processed.
 """
 
 from __future__ import annotations
@@ -93,14 +93,15 @@ def rig_rules(project: Path) -> dict:
 
 VM_CONFIG = """\
 version: 1
-cameras:   # by path: the wheel has no config/scenarios (a bare name fails when installed)
-  {kind: virtual, scenario: /opt/mast-stereo/examples/scenarios/akashi-crossing.yaml, pace: true, loop: true}
+# a short simulator recording (systemd_harness.ensure_recording): virtual cameras render ~10 s a pair
+# under TCG, which leaves the daemon STALLED, sending no WATCHDOG=1, until the watchdog kills it
+cameras: {kind: replay, path: RECORDING, pace: true, loop: true}
 outputs:
   nmea: []
   modbus: {tcp: {enabled: true, host: 0.0.0.0, port: 502}}
   tracks_csv: /var/lib/mast-stereo/tracks.csv
 health:
-  stale_s: 60.0   # a pair takes seconds to render under TCG: 2 s would be STALLED
+  stale_s: 30.0   # a pair may take over 2 s under TCG
   leds: {kind: sysfs, ok: "mast:green:ok", fault: "mast:red:fault"}
 """
 
@@ -130,13 +131,7 @@ if sys.argv[1:] != ["leds-only"]:
     try_("write /opt/mast-stereo", lambda: write("/opt/mast-stereo/probe", "x"))
     try_("bind port 503", lambda: socket.create_server(("0.0.0.0", 503)).close())
     try_("netlink socket", lambda: socket.socket(socket.AF_NETLINK, socket.SOCK_RAW, 0).close())
-    def numeric():
-        import cv2, numpy as np, scipy.ndimage
-        a = np.random.default_rng(0).integers(0, 255, (480, 720), dtype=np.uint8)
-        b = cv2.GaussianBlur(a, (5, 5), 1.0)
-        c = scipy.ndimage.uniform_filter(b.astype(np.float32), 5)
-        return f"ok: numpy {np.__version__}, cv2 {cv2.__version__}, sum {float(c.sum()):.0f}"
-    try_("numpy+opencv+scipy", numeric)
+    # numpy/OpenCV/scipy under MemoryDenyWriteExecute and the syscall filter: the daemon's own pairs
     try_("systemd.daemon", lambda: __import__("systemd.daemon") and None)
 print(json.dumps(out))
 '''
@@ -196,6 +191,26 @@ def start() -> dict:
             "user_uid": int(sh("id", "-u", "mast-stereo")["out"].strip() or -1)}
 
 
+def daemon_leds(seconds: float = 5.0) -> dict:
+    """Brightness changes of the uleds LEDs while the daemon runs (it owns them with kind sysfs)."""
+    import select
+
+    poller = select.poll()
+    roles = dict(zip(result["led_fds"], LEDS, strict=True))
+    for fd in roles:
+        os.set_blocking(fd, False)
+        poller.register(fd, select.POLLIN)
+    events, t0 = [], time.monotonic()
+    while time.monotonic() - t0 < seconds:
+        for fd, _ in poller.poll(100):
+            try:
+                (value,) = struct.unpack("i", os.read(fd, 4))
+            except BlockingIOError:
+                continue
+            events.append((round(time.monotonic() - t0, 3), roles[fd], value))
+    return {"events": events, "status": show("StatusText")["StatusText"]}
+
+
 def modbus() -> dict:
     attempts = []
     for _ in range(20):
@@ -211,12 +226,13 @@ def modbus() -> dict:
 
 
 def watchdog() -> dict:
+    time.sleep(3)  # a few pairs and WATCHDOG=1s first
     before = show("MainPID", "NRestarts")
     pid = int(before["MainPID"])
     t_stop = time.monotonic()
     os.kill(pid, 19)  # SIGSTOP: the daemon hangs; only the watchdog can tell
     back = None
-    while time.monotonic() - t_stop < 120:
+    while time.monotonic() - t_stop < 150:
         time.sleep(1)
         now = show("MainPID", "ActiveState", "NRestarts")
         if now["ActiveState"] == "active" and now["MainPID"] not in ("0", str(pid)):
@@ -231,17 +247,21 @@ def watchdog() -> dict:
 def reload() -> dict:
     pid = show("MainPID")["MainPID"]
     run = sh("systemctl", "reload", UNIT, timeout_s=60)
-    time.sleep(4)
+    time.sleep(3)
     return {"reload": run, "pid_before": pid, "after": show("MainPID", "ActiveState", "NRestarts")}
 
 
 def stop() -> dict:
     run = sh("systemctl", "stop", UNIT, timeout_s=60)
-    return {"stop": run, "after": show("ActiveState", "Result", "ExecMainStatus")}
+    journal = sh("journalctl", "-u", UNIT, "-o", "cat", "--no-pager")["out"]
+    return {"stop": run, "after": show("ActiveState", "Result", "ExecMainStatus"),
+            "stopped_lines": [line for line in journal.splitlines() if "stopped:" in line],
+            "errors": [line for line in journal.splitlines()
+                       if " ERROR " in line or "Traceback" in line][:20]}
 
 
 def main() -> int:
-    bundle, project = Path(sys.argv[1]), Path(sys.argv[2])
+    bundle, project, recording = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
     result["boot_s"] = uptime_s()
     step("leds", make_leds)
     step("gpio", make_gpio_chip)
@@ -257,13 +277,14 @@ def main() -> int:
                       for n in LEDS},
         "rules_kept": "vivid-000-vid-cap" in Path("/etc/udev/rules.d/60-mast-stereo.rules").read_text(),
         "enabled": sh("systemctl", "is-enabled", UNIT)["out"].strip()})
-    Path("/etc/mast-stereo/config.yaml").write_text(VM_CONFIG)
+    Path("/etc/mast-stereo/config.yaml").write_text(VM_CONFIG.replace("RECORDING", recording))
     # the probes run while the daemon starts (two vCPUs; python imports dominate both)
     launch_probe("mast-probe")
     launch_probe("mast-probe-norw", "leds-only", dropin="ReadWritePaths=")
     launch_probe("mast-probe-class", "leds-only", dropin="ReadWritePaths=\nReadWritePaths=-/sys/class/leds")
     step("start", start)
     step("modbus", modbus)
+    step("daemon_leds", daemon_leds)
     step("security", lambda: sh("systemd-analyze", "security", "--no-pager", UNIT, timeout_s=120))
     step("probe", lambda: collect_probe("mast-probe"))
     step("probe_no_rw", lambda: collect_probe("mast-probe-norw"))

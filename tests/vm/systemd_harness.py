@@ -30,7 +30,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 HARNESS = Path(os.environ.get("APPLIANCE_VM", ROOT.parent / "shared" / "tools" / "appliance-vm"))
 VM_DIR = Path(os.environ.get("V4L2VM_DIR", "/var/tmp/appliance-vm"))
-ROOTFS_DEBS = "systemd udev dbus libnss-systemd python3-venv mbpoll"
+ROOTFS_DEBS = "systemd udev dbus libnss-systemd python3-venv mbpoll procps"  # procps: /bin/kill (ExecReload)
 ROOTFS = Path(os.environ.get("MAST_VM_ROOTFS", VM_DIR / "rootfs-systemd"))
 
 
@@ -51,14 +51,16 @@ def require_vm() -> None:
 
 
 def run_vm(
-    command: list[str], *, systemd: bool = False, rootfs: Path | None = None, vivid: str = "none",
+    command: list[str], *, systemd: bool = False, rootfs: Path | None = None, vivid: str | None = "none",
     timeout_s: float = 300.0, keep_ctl: bool = False, mem_mb: int = 1024,
 ) -> VmRun:
     """Boot the VM with the project shared at its own path and run `command` in it (cwd = project)."""
     env = {**os.environ, "V4L2VM_DIR": str(VM_DIR)}
     env.setdefault("V4L2VM_KMODS", "1")
-    args = [str(HARNESS / "run.sh"), "--project", str(ROOT), "--vivid", vivid, "--mem", str(mem_mb),
+    args = [str(HARNESS / "run.sh"), "--project", str(ROOT), "--mem", str(mem_mb),
             "--timeout", str(int(timeout_s))]
+    if vivid is not None:  # None: run.sh's default (two vivid capture+output instances)
+        args += ["--vivid", vivid]
     if systemd:
         args.append("--systemd")
     if rootfs is not None:
@@ -135,6 +137,25 @@ def ensure_venv(rootfs: Path, bundle: str) -> str:
     if proc.returncode:
         pytest.fail(f"tools/install --venv-only in a chroot of {rootfs} failed:\n{proc.stdout}{proc.stderr}")
     return proc.stdout
+
+
+GUEST_RECORDING = "/var/cache/mast-stereo/recording"
+
+
+def ensure_recording(rootfs: Path, frames: int = 20) -> str:
+    """A short simulator recording inside `rootfs` for the VM's daemon (replay cameras); its guest path.
+
+    The virtual cameras render a pair in ~0.3 s natively, ~10 s under TCG: the daemon would be STALLED
+    (no WATCHDOG=1) before its first pair and killed by the watchdog. Replaying PNGs keeps it healthy."""
+    from edge.sim.batch import write_recording
+    from edge.sim.scenario import load_scenario
+    from edge.sim.simulator import Simulation
+
+    out = rootfs / GUEST_RECORDING.lstrip("/")
+    if not (out / "frames.csv").is_file():
+        shutil.rmtree(out, ignore_errors=True)
+        write_recording(Simulation(load_scenario("akashi-crossing"), seed=0), out, frames=frames)
+    return GUEST_RECORDING
 
 
 def steps(output: str, tag: str = "MAST-STEP") -> dict[str, dict]:
