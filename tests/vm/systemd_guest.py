@@ -8,7 +8,8 @@ tools/install must keep; tools/install --from BUNDLE twice (the second changes n
 replaying a short simulator recording; systemctl start (Type=notify: returns after READY=1) and
 status; the main process's user; the Modbus identity block via mbpoll on port 502; systemd-analyze
 security; a probe unit with the service's exact sandbox that opens cameras, serial ports, GPIO and
-LEDs (and again with other ReadWritePaths, to show what LEDs need); SIGSTOP -> watchdog restart;
+LEDs (and again with other ReadWritePaths, PrivateDevices=, PrivateUsers=, to show why the unit
+sets them as it does); SIGSTOP -> watchdog restart;
 reload (SIGHUP); stop, and the pairs the daemon processed.
 """
 
@@ -296,12 +297,16 @@ def main() -> int:
     launch_probe("mast-probe")
     launch_probe("mast-probe-norw", "leds-only", dropin="ReadWritePaths=")
     launch_probe("mast-probe-class", "leds-only", dropin="ReadWritePaths=\nReadWritePaths=-/sys/class/leds")
+    launch_probe("mast-probe-privdev", dropin="PrivateDevices=yes")  # options the unit leaves off: why
+    launch_probe("mast-probe-privusers", dropin="PrivateUsers=yes")
     step("start", start)
     step("modbus", modbus)
     step("security", lambda: sh("systemd-analyze", "security", "--no-pager", UNIT, timeout_s=120))
     step("probe", lambda: collect_probe("mast-probe"))
     step("probe_no_rw", lambda: collect_probe("mast-probe-norw"))
     step("probe_class_only", lambda: collect_probe("mast-probe-class"))
+    step("probe_private_devices", lambda: collect_probe("mast-probe-privdev"))
+    step("probe_private_users", lambda: collect_probe("mast-probe-privusers"))
     step("daemon_leds", daemon_leds)
     step("watchdog", watchdog)
     step("reload", reload)

@@ -112,6 +112,17 @@ def test_leds_need_sys_devices_writable_not_just_sys_class_leds(vm: dict) -> Non
         assert "Read-only file system" in vm[probe]["led mast:green:ok"], vm[probe]
 
 
+def test_private_devices_and_private_users_would_break_the_appliance(vm: dict) -> None:
+    """Why the unit leaves them off (each would lower the exposure score by 0.2)."""
+    devices, users = vm["probe_private_devices"], vm["probe_private_users"]
+    for dev in ("open /dev/video0", "open /dev/ttyS1"):
+        assert "No such file" in devices[dev], devices
+    assert "Permission denied" in users["bind port 503"], users  # CAP_NET_BIND_SERVICE only in its namespace
+    # ... but devices and LEDs would still work (the kernel checks the real groups): with Modbus on a
+    # port >= 1024, PrivateUsers=yes and no capability at all are possible
+    assert users["open /dev/video0"] == users["open /dev/ttyS1"] == users["led mast:green:ok"] == "ok", users
+
+
 def test_a_stopped_daemon_is_restarted_by_the_watchdog(vm: dict) -> None:
     w = vm["watchdog"]
     assert w["back_after_s"] is not None, (w, vm["_journal"][-3000:])
