@@ -83,7 +83,9 @@ def make_gpio_chip() -> dict:
 def rig_rules(project: Path) -> dict:
     shipped = (project / "systemd/60-mast-stereo.rules").read_text()
     rig = shipped.replace('LABEL="mast_stereo_end"', (
-        'SUBSYSTEM=="video4linux", ATTR{name}=="vivid-000-vid-cap", SYMLINK+="mast/cam-left"\n'
+        # by ID_PATH (imported by the shipped file itself) and by the driver's name
+        'SUBSYSTEM=="video4linux", ATTR{index}=="0", ENV{ID_PATH}=="platform-vivid.0", '
+        'SYMLINK+="mast/cam-left"\n'
         'SUBSYSTEM=="video4linux", ATTR{name}=="vivid-001-vid-cap", SYMLINK+="mast/cam-right"\n'
         'SUBSYSTEM=="tty", KERNEL=="ttyS1", SYMLINK+="mast/nmea"\n'
         'LABEL="mast_stereo_end"'))
@@ -284,7 +286,8 @@ def main() -> int:
         "mast_links": sorted(os.listdir("/dev/mast")) if os.path.isdir("/dev/mast") else [],
         "led_group": {n: sh("stat", "-c", "%G %a", f"/sys/class/leds/{n}/brightness")["out"].strip()
                       for n in LEDS},
-        "rules_kept": "vivid-000-vid-cap" in Path("/etc/udev/rules.d/60-mast-stereo.rules").read_text(),
+        "rules_kept": "vivid-001-vid-cap" in Path("/etc/udev/rules.d/60-mast-stereo.rules").read_text(),
+        "video0": sh("udevadm", "info", "--query=property", "--name=/dev/video0")["out"],
         "enabled": sh("systemctl", "is-enabled", UNIT)["out"].strip()})
     Path("/etc/mast-stereo/config.yaml").write_text(VM_CONFIG.replace("RECORDING", recording))
     # imports take 30-120 s under TCG (~2 s on a mast): more than the unit's TimeoutStartSec=120s
