@@ -1,0 +1,1 @@
+"""Status LEDs on the mast's enclosure: patterns (off, on, blink, heartbeat) driven by the daemon's loop."""
