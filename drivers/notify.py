@@ -62,7 +62,9 @@ class SystemdNotifier(Notifier):
     """sd_notify through systemd-python; a no-op (False) when $NOTIFY_SOCKET is unset."""
 
     def __init__(self) -> None:
-        from systemd import daemon  # imported here: only the real notifier needs libsystemd
+        # imported here: only the real notifier needs libsystemd. (mypy sees the checkout's systemd/ unit
+        # directory as a namespace package first; at run time the installed package wins.)
+        from systemd import daemon  # type: ignore[attr-defined]
 
         self._notify = daemon.notify
         self.failures = 0

@@ -35,8 +35,11 @@ from pathlib import Path
 
 from drivers.camera.base import FramePair, FramePairSource
 from drivers.clock import Clock, SystemClock
+from drivers.leds.base import AMBER_LED, FAULT_LED, OK_LED, LedPanel
+from drivers.leds.sysfs import SysfsLedPanel
+from drivers.leds.virtual import VirtualLedPanel
 from drivers.notify import Notifier
-from edge.config.app import AppConfig, load_config
+from edge.config.app import AppConfig, LedsConfig, load_config
 from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthMonitor, HealthSnapshot, HealthState, Status, standard_stages
@@ -87,6 +90,16 @@ class _Latest:
             return None if pair is None else (pair, self.put_ns)
 
 
+def build_leds(cfg: LedsConfig) -> LedPanel | None:
+    """The configured status LEDs: none, the kernel's LED class devices, or a recording panel."""
+    if cfg.kind == "none":
+        return None
+    roles = {OK_LED: cfg.ok, FAULT_LED: cfg.fault, **({AMBER_LED: cfg.amber} if cfg.amber else {})}
+    if cfg.kind == "virtual":
+        return VirtualLedPanel(tuple(roles))
+    return SysfsLedPanel(roles, root=cfg.root)
+
+
 def _plan(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
     plan = plan_source(config, config_file)
     if plan.calibration.site is None:
@@ -113,6 +126,7 @@ class Appliance:
         self.pipeline, self.outputs, self.health = pipeline, outputs, health
         self.notifier, self.on_fixes, self.extra_nmea = notifier, on_fixes, tuple(extra_nmea)
         self.on_health: HealthCallback | None = None
+        self.leds: LedPanel | None = build_leds(config.health.leds)
         self.clock: Clock = SystemClock()
         self._clock_checked_s = -math.inf
         self.queue = _Latest()
@@ -255,7 +269,7 @@ class Appliance:
                 elif not ready:
                     self.notifier.extend_timeout(EXTEND_S, "starting: waiting for the first frame pair")
                 self._report(snap, ready)
-                stop.wait(period_s)
+                self._wait(stop, period_s)
         finally:
             stop.set()
             self.notifier.stopping("stopping")
@@ -263,7 +277,20 @@ class Appliance:
             processing.join(timeout=JOIN_S)
             self._send_lost()
             self.outputs.close()
+            if self.leds is not None:
+                self.leds.close()  # steady red: not running
         return 0
+
+    def _wait(self, stop: threading.Event, period_s: float) -> None:
+        """Sleep until the next status tick, driving the LEDs' blink edges meanwhile: the daemon's
+        own loop toggles them, so a hung daemon leaves them steady instead of blinking on."""
+        end_ns = time.monotonic_ns() + round(period_s * 1e9)
+        while not stop.is_set():
+            now_ns = time.monotonic_ns()
+            if now_ns >= end_ns:
+                return
+            next_ns = end_ns if self.leds is None else min(end_ns, self.leds.tick(now_ns))
+            stop.wait(max(0, next_ns - now_ns) / 1e9)
 
     def status_line(self, snap: HealthSnapshot) -> str:
         rate = f"{snap.frame_rate_hz:.1f} fps" if snap.frame_rate_hz is not None else "no frames yet"
@@ -285,6 +312,9 @@ class Appliance:
         watched = self.notifier.watchdog_interval_s() is not None  # WatchdogSec set, and for our pid
         if watched and self.config.health.watchdog and snap.state is not HealthState.STALLED:
             self.notifier.watchdog()
+        if self.leds is not None:
+            self.leds.show_health(snap.state)
+            self.leds.tick()
         if self.on_health is not None:
             self.on_health(snap)
 
@@ -328,6 +358,10 @@ class Appliance:
                 self.outputs, self.health = outputs, health
                 self.outputs.start()
                 self.outputs.publish(self.last_fixes, time.time_ns())  # new ports serve at once
+            if config.health.leds != old.health.leds:
+                if self.leds is not None:
+                    self.leds.close()
+                self.leds = build_leds(config.health.leds)
             self.config, self.plan, self.reload_error = config, plan, None
             if cameras_changed:
                 self._start_capture()

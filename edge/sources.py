@@ -26,6 +26,8 @@ from edge.sim.simulator import live_source
 
 log = logging.getLogger(__name__)
 
+READ_TIMEOUT_S = 0.5  # the longest a live source's read waits before it reports its cameras' state
+
 
 @dataclass(frozen=True, slots=True)
 class SourcePlan:
@@ -87,5 +89,6 @@ def _v4l2_plan(config: AppConfig, cams: V4l2Cameras, config_file: str | Path | N
     description = (f"v4l2 {built.left.device} + {built.right.device}, {cams.width}x{cams.height} "
                    f"{cams.pixel_format}, {built.trigger.describe()}")
     calibration = Calibration(config.calibration.rig, config.effective_site)
-    return SourcePlan(lambda: cameras_from_config(cams.block()).source(), calibration, rate_hz,
-                      description, monotonic_stamps=True)
+    # a short read timeout: camera faults reach health within half a second, not at the next pair
+    return SourcePlan(lambda: cameras_from_config(cams.block()).source(read_timeout_s=READ_TIMEOUT_S),
+                      calibration, rate_hz, description, monotonic_stamps=True)

@@ -124,7 +124,9 @@ def _write(path: Path, text: str) -> None:
         os.close(fd)
 
 
-def _reason(exc: OSError) -> str:
+def _reason(exc: OSError | ValueError) -> str:
+    if not isinstance(exc, OSError):  # a max_brightness that is not a number
+        return str(exc)
     if exc.errno in (errno.EACCES, errno.EPERM):
         return f"{exc.strerror} (is the udev rule for LEDs installed and the user in group mast-stereo?)"
     return exc.strerror or str(exc)

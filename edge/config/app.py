@@ -218,8 +218,10 @@ class OutputsConfig:
 @dataclass(frozen=True)
 class LedsConfig:
     kind: Literal["none", "sysfs", "virtual"] = setting("virtual", doc="status LEDs driver")
-    ok: str = setting("mast:green:ok", doc="LED name under /sys/class/leds (kind sysfs)")
-    fault: str = setting("mast:red:fault", doc="LED name under /sys/class/leds (kind sysfs)")
+    ok: str = setting("mast:green:ok", doc="green LED under /sys/class/leds (kind sysfs): heartbeat while OK")
+    fault: str = setting("mast:red:fault", doc="red LED name (kind sysfs): steady on a fault or when stopped")
+    amber: str | None = setting(None, doc="amber LED name for DEGRADED; null: green and red blink together")
+    root: str = setting("/sys/class/leds", doc="where the LED class devices are (kind sysfs)")
 
 
 @dataclass(frozen=True)

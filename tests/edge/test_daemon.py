@@ -317,3 +317,40 @@ def test_reload_without_camera_or_pipeline_change_keeps_tracks_and_numbers(tmp_p
         stop.set()
         runner.join(timeout=5.0)
         logging.getLogger().setLevel(logging.WARNING)
+
+
+def test_leds_follow_health_from_the_daemons_own_loop(tmp_path: Path, recording) -> None:
+    """Virtual LEDs: green heartbeat while OK, green and red blinking together while a camera reports
+    a fault (DEGRADED, no amber LED configured), back to the heartbeat, steady red once stopped."""
+    from drivers.leds.virtual import VirtualLedPanel
+    from drivers.notify import VirtualNotifier
+
+    app = _replay_appliance(tmp_path, recording("akashi-crossing", 30), VirtualNotifier())
+    leds = app.leds
+    assert isinstance(leds, VirtualLedPanel)
+    stop = threading.Event()
+    runner = threading.Thread(target=app.run, args=(stop,), daemon=True)
+    runner.start()
+
+    def toggles(role: str, since_ns: int) -> int:
+        return sum(1 for t, _ in leds.history[role] if t >= since_ns)
+
+    try:
+        end = time.monotonic() + 60
+        while app.steps == 0 and time.monotonic() < end:
+            time.sleep(0.1)
+        time.sleep(2.5)
+        t_ok = time.monotonic_ns()
+        time.sleep(2.0)
+        assert toggles("ok", t_ok) >= 4 and toggles("fault", t_ok) == 0  # heartbeat: two pulses a second
+        assert app.source is not None
+        app.source.camera_faults = lambda: {"left": None, "right": "unplugged"}  # type: ignore[method-assign]
+        time.sleep(2.0)
+        t_bad = time.monotonic_ns()
+        time.sleep(2.0)
+        assert app.health.snapshot().state.value == "DEGRADED"
+        assert toggles("ok", t_bad) >= 4 and toggles("fault", t_bad) >= 4  # blinking together: amber
+    finally:
+        stop.set()
+        runner.join(timeout=5.0)
+    assert leds.levels() == {"ok": 0, "fault": 1}  # stopped: steady red

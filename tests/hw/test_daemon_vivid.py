@@ -73,9 +73,11 @@ def test_daemon_on_vivid_survives_a_camera_unplug(tmp_path: Path) -> None:
     try:
         ready = wait(r"^READY=1", 180.0)
         node = Node(RIGHT)
-        node.set("disconnect", 1)  # vivid: the node is unregistered until its last user closes it
-        node.close()
-        degraded = wait(r"STATUS=DEGRADED.*camera_right", 60.0, after=ready)
+        node.set("disconnect", 1)  # vivid: the node is unregistered until its last user closes it,
+        try:  # so holding it open keeps the camera unplugged for as long as a person would
+            degraded = wait(r"STATUS=DEGRADED.*camera_right", 60.0, after=ready)
+        finally:
+            node.close()
         wait(r"STATUS=OK", 90.0, after=degraded)
         proc.send_signal(signal.SIGTERM)
         out, err = proc.communicate(timeout=30)
