@@ -26,9 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from drivers.clock import Clock, SystemClock
+from drivers.leds.base import OFF, ON
 from edge.config.app import AppConfig, V4l2Cameras, config_from_dict, load_config
 from edge.config.schema import load_yaml
 from edge.core.match import match_point
+from edge.daemon import build_leds
 from edge.errors import ConfigError
 from edge.health import Status
 from edge.sim import synth
@@ -40,6 +42,7 @@ CAMERA_PAIRS = 5
 MIN_FREE_BYTES = 1 << 30
 KNOWN_RANGE_DISPARITY_PX = 5.0  # the known-answer pair: a ship at the range of 5 px disparity
 RECORDINGS_DIR = Path("/var/lib/mast-stereo")
+LED_STEP_S = 0.5  # each LED on, then off, this long
 
 
 @dataclass(frozen=True)
@@ -253,7 +256,25 @@ class Selftest:
         return Check("modbus port", PASS, f"{tcp.host}:{tcp.port} bindable")
 
     def check_leds(self) -> Check:
-        return Check("leds", SKIP, "no LED driver in this build")
+        """Each LED on, then off (the technician sees them cycle); not while the daemon drives them."""
+        assert self.config is not None
+        cfg = self.config.health.leds
+        if cfg.kind == "none":
+            return Check("leds", SKIP, "no LEDs configured")
+        if self.daemon is not None:
+            return Check("leds", SKIP, "driven by the running daemon")
+        panel = build_leds(cfg)
+        assert panel is not None
+        for pattern in (ON, OFF):
+            panel.show(dict.fromkeys(panel.roles, pattern))
+            panel.tick()
+            time.sleep(LED_STEP_S)
+        missing = [role for role, ok in getattr(panel, "present", dict)().items() if not ok]
+        panel.close({})
+        if missing:
+            return Check("leds", FAIL, f"not writable: {', '.join(missing)} under {cfg.root}",
+                         "check health.leds names (ls /sys/class/leds) and the udev rule for LEDs")
+        return Check("leds", PASS, f"{cfg.kind}: {', '.join(panel.roles)} cycled on and off")
 
     def check_disk(self) -> Check:
         where = RECORDINGS_DIR if RECORDINGS_DIR.is_dir() else self.config_path.resolve().parent
