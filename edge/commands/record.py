@@ -102,9 +102,12 @@ def run(args: argparse.Namespace) -> int:
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     bar = ProgressBar(Path(args.out).name)
 
+    drawn_full = [False]  # the bar ends its line itself at done == total, once; else we end it below
+
     def progress(done: int, total: int) -> None:
-        if done < total:  # the bar ends its line itself at done == total; we end it below instead
+        if not drawn_full[0]:
             bar(done, total)
+            drawn_full[0] = done >= total
 
     try:
         with source:
@@ -116,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         for s, handler in previous.items():
             signal.signal(s, handler)
         files.close()
-    if bar.enabled:
+    if bar.enabled and not drawn_full[0]:
         bar.stream.write("\n")
     for line in result.lines():
         print(f"{PROG}: {args.out}: {line}", file=sys.stderr)
