@@ -27,6 +27,7 @@ or an unpaced simulator can wait, so for those the capture loop blocks and nothi
 
 from __future__ import annotations
 
+import logging
 import os
 import queue
 import threading
@@ -41,6 +42,8 @@ import yaml
 
 from drivers.camera.base import FramePair, FramePairSource
 from edge.sim.recording import FRAMES_HEADER, PNG_PARAMS, image_paths, prepare_directory
+
+log = logging.getLogger(__name__)
 
 QUEUE_BYTES = 128 * 1024 * 1024  # images held for the writer at most (grey pairs), 4..64 pairs
 PART = ".part"  # suffix of a file being written; renamed once complete
@@ -211,6 +214,7 @@ class RecordResult:
     dropped_by_source: int = 0
     skipped_by_source: int = 0
     abandoned: int = 0
+    read_timeouts: int = 0  # reads that timed out (TimeoutError) and were retried
     elapsed_s: float = 0.0
     t0_ns: int | None = None  # the first pair's own timestamp (CLOCK_MONOTONIC when live)
     t0_utc_ns: int | None = None
@@ -221,7 +225,8 @@ class RecordResult:
         text = [f"{self.written} pairs written ({rate:.1f} pairs/s over {self.elapsed_s:.1f} s), "
                 f"stopped: {self.reason}",
                 f"captured {self.captured}; dropped by the writer {self.dropped_by_writer}, by the source "
-                f"{self.dropped_by_source}; skipped by the source {self.skipped_by_source}"]
+                f"{self.dropped_by_source}; skipped by the source {self.skipped_by_source}; read time-outs "
+                f"{self.read_timeouts}"]
         if self.abandoned:
             text.append(f"{self.abandoned} captured pairs were not written after the failure")
         if self.error is not None:
@@ -232,7 +237,8 @@ class RecordResult:
         """The counters for meta.yaml's `recorded` block."""
         return {"pairs": self.written, "captured": self.captured, "dropped_by_writer": self.dropped_by_writer,
                 "dropped_by_source": self.dropped_by_source, "skipped_by_source": self.skipped_by_source,
-                "stopped": self.reason, "t0_ns": self.t0_ns, "t0_utc_ns": self.t0_utc_ns}
+                "read_timeouts": self.read_timeouts, "stopped": self.reason, "t0_ns": self.t0_ns,
+                "t0_utc_ns": self.t0_utc_ns}
 
 
 def record(
@@ -248,9 +254,11 @@ def record(
 ) -> RecordResult:
     """Capture until `frames` pairs, `seconds` of wall time, the source's end, `stop`, or a failure.
 
-    Stops are checked after each pair, so a stop takes effect within one frame period. Source
-    exceptions stop the recording (reason SOURCE_FAILED) rather than propagate: what was captured
-    is still written. `progress(done, total)` gets the pairs captured against the expected total.
+    Stops are checked before each read, so a stop takes effect within one frame period (or one
+    read time-out). A read that times out (TimeoutError, e.g. a camera unplugged) is counted and
+    retried, as the daemon does; any other source exception stops the recording (SOURCE_FAILED)
+    rather than propagate: what was captured is still written. `progress(done, total)` gets the
+    pairs captured against the expected total.
     """
     width, height = int(files.meta["width"]), int(files.meta["height"])
     fps = float(files.meta.get("fps") or 0.0)
@@ -263,9 +271,16 @@ def record(
             if stop is not None and stop.is_set():
                 result.reason = SIGNALLED
                 break
+            if seconds is not None and clock() - start >= seconds:
+                result.reason = DONE_SECONDS
+                break
             try:
                 pair = source.read()
-            except Exception as exc:  # a camera failing mid-recording: keep what we have
+            except TimeoutError as exc:  # no pair in time (a camera away): the daemon's policy, keep trying
+                result.read_timeouts += 1
+                log.warning("no pair from the cameras in time (%s); still trying", exc)
+                continue
+            except Exception as exc:  # a camera failing for good mid-recording: keep what we have
                 result.reason, result.error = SOURCE_FAILED, exc
                 break
             if pair is None:
@@ -290,9 +305,6 @@ def record(
                 progress(min(result.captured, total), total)
             if frames is not None and result.captured >= frames:
                 result.reason = DONE_FRAMES
-                break
-            if seconds is not None and clock() - start >= seconds:
-                result.reason = DONE_SECONDS
                 break
     finally:
         writer.finish()

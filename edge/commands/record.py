@@ -11,7 +11,8 @@ Exit status (the recording replays up to its last complete pair in every case bu
 - 0: done (`--frames` or `--seconds` reached, or the source ended, e.g. a recording without loop);
 - 130 / 143: stopped by SIGINT / SIGTERM (a second signal kills at once; the files stay consistent);
 - 74 (EX_IOERR): writing failed, e.g. the disk is full (ENOSPC);
-- 69 (EX_UNAVAILABLE): the cameras could not be opened or failed while recording;
+- 69 (EX_UNAVAILABLE): the cameras could not be opened or failed while recording (a read that
+  merely times out, e.g. a camera unplugged, is counted and retried as the daemon does);
 - 73 (EX_CANTCREAT): RECORDING exists (replace a recording with `--force`) or cannot be created;
 - 78 (EX_CONFIG): a bad configuration, or cameras whose frame size is not the calibration's.
 """

@@ -187,3 +187,29 @@ def test_queue_capacity_is_bounded_by_memory() -> None:
     assert rec.queue_capacity(720, 480) == 64
     assert 4 <= rec.queue_capacity(2048, 1536) < 64
     assert rec.queue_capacity(100_000, 100_000) == 4
+
+
+class _Flaky(VirtualSource):
+    """Times out twice (a camera away), then delivers; then fails for good."""
+
+    def __init__(self, n: int) -> None:
+        super().__init__([_pair(k) for k in range(n)])
+        self.timeouts = 2
+
+    def read(self) -> FramePair | None:
+        if self.timeouts:
+            self.timeouts -= 1
+            raise TimeoutError("no pair within 2 s")
+        pair = super().read()
+        if pair is None:
+            raise RuntimeError("camera gone for good")
+        return pair
+
+
+def test_read_timeouts_are_retried_and_a_failing_source_keeps_what_was_captured(tmp_path: Path) -> None:
+    files = _files(tmp_path)
+    result = rec.record(_Flaky(3), files, live=True, frames=10)
+    files.close()
+    assert (result.reason, result.read_timeouts, result.written) == (rec.SOURCE_FAILED, 2, 3)
+    assert "gone for good" in str(result.error)
+    assert len(_replayed(files.root)) == 3
