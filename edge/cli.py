@@ -22,6 +22,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "calibrate": ("edge.commands.calibrate", "fit camera models from surveyed landmarks"),
     "check-config": ("edge.commands.check_config", "load a configuration/calibration and print a summary"),
     "simulate": ("edge.commands.simulate", "render a stereo sea scene with ground truth to a recording"),
+    "record": ("edge.commands.record", "capture pairs from the configured cameras into a recording"),
     "replay": ("edge.commands.replay", "run the pipeline over a recording: NMEA and a per-fix CSV"),
     "selftest": ("edge.commands.selftest", "the technician's checks: PASS/FAIL table, exit = failures"),
 }

@@ -65,18 +65,24 @@ def write_png(path: Path, image: np.ndarray) -> None:
         raise OSError(f"could not write {path}")
 
 
+def prepare_directory(root: str | Path, overwrite: bool = False) -> Path:
+    """An empty recording directory with left/ and right/; only a recording is ever replaced."""
+    root = Path(root)
+    if root.exists() and any(root.iterdir()):
+        if not (overwrite and (root / "meta.yaml").is_file()):
+            what = "replace it with --force" if (root / "meta.yaml").is_file() else "not a recording"
+            raise FileExistsError(f"{root} exists and is not empty ({what})")
+        shutil.rmtree(root)
+    for sub in ("left", "right"):
+        (root / sub).mkdir(parents=True, exist_ok=True)
+    return root
+
+
 class RecordingWriter:
     """Creates a recording directory; add pairs and truth rows, then `close()` (or use `with`)."""
 
     def __init__(self, root: str | Path, meta: dict, overwrite: bool = False) -> None:
-        self.root = Path(root)
-        if self.root.exists() and any(self.root.iterdir()):
-            if not (overwrite and (self.root / "meta.yaml").is_file()):
-                what = "replace it with --force" if (self.root / "meta.yaml").is_file() else "not a recording"
-                raise FileExistsError(f"{self.root} exists and is not empty ({what})")
-            shutil.rmtree(self.root)
-        for sub in ("left", "right"):
-            (self.root / sub).mkdir(parents=True, exist_ok=True)
+        self.root = prepare_directory(root, overwrite)
         with open(self.root / "meta.yaml", "w", encoding="utf-8") as f:
             yaml.safe_dump(meta, f, sort_keys=False, allow_unicode=True)
         self._frames = open(self.root / "frames.csv", "w", encoding="utf-8", newline="")  # noqa: SIM115
