@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from drivers.camera.base import FramePairSource
-from drivers.camera.replay import ReplaySource
+from drivers.camera.replay import RecordingFormatError, ReplaySource
 from drivers.camera.v4l2 import V4L2Camera
 from drivers.camera.v4l2_config import cameras_from_config
 from drivers.camera.v4l2_node import CameraGone, DeviceError
@@ -54,7 +54,7 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
         root = Path(cams.path)
         try:
             probe = ReplaySource(root)
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, RecordingFormatError) as exc:
             raise ConfigError(config_file, "cameras.path", "a readable recording directory",
                               f"{root}: {exc}") from exc
         cal = config.calibration or recording_calibration(root, probe.meta)

@@ -27,9 +27,8 @@ import threading
 from pathlib import Path
 from types import FrameType
 
-from drivers.camera.replay import RecordingFormatError
 from edge.config.app import load_config
-from edge.errors import EX_CONFIG, ConfigError
+from edge.errors import EX_CONFIG
 from edge.record import SIGNALLED, SOURCE_FAILED, WRITE_FAILED, WRONG_SIZE, RecordingFiles, record
 from edge.sim.batch import ProgressBar
 from edge.sim.recording import build_meta
@@ -68,10 +67,7 @@ def _utc(t_ns: int) -> str:
 
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.config)
-    try:
-        plan = plan_source(config, args.config)  # ConfigError -> exit 78, nothing opened or written yet
-    except RecordingFormatError as exc:  # cameras.path is no recording: plan_source lets this one through
-        raise ConfigError(args.config, "cameras.path", f"a mast-stereo recording ({exc})") from None
+    plan = plan_source(config, args.config)  # ConfigError -> exit 78, nothing opened or written yet
     started = datetime.datetime.now(datetime.UTC)
     notes = (f"Recorded by `mast-stereo record` from {plan.description} (configuration "
              f"{Path(args.config).resolve()}), starting {started.isoformat(timespec='seconds')} UTC. "
