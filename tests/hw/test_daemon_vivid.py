@@ -91,3 +91,17 @@ def test_daemon_on_vivid_survives_a_camera_unplug(tmp_path: Path) -> None:
         proc.kill()
         done.set()
         sock.close()
+
+
+def test_record_from_vivid_gives_a_recording_replay_accepts(tmp_path: Path) -> None:
+    out = tmp_path / "rec"
+    record = subprocess.run([sys.executable, "-m", "edge.cli", "record", "--config", str(config(tmp_path)),
+                             "--out", str(out), "--frames", "12"], cwd=ROOT, capture_output=True, text=True,
+                            timeout=240)
+    assert record.returncode == 0, record.stderr[-3000:]
+    rows = (out / "frames.csv").read_text().splitlines()
+    assert rows[0].startswith("index,t_ns,seq_left,seq_right") and len(rows) == 13
+    replay = subprocess.run([sys.executable, "-m", "edge.cli", "replay", str(out), "--tracks",
+                             str(tmp_path / "t.csv")], cwd=ROOT, capture_output=True, text=True, timeout=240)
+    assert replay.returncode == 0, replay.stderr[-3000:]
+    assert re.search(r"read 12, skipped \(unreadable\) 0", replay.stderr), replay.stderr

@@ -23,6 +23,7 @@ EXPECTED = {
     "test_disconnect_faults_the_camera_and_the_source_reconnects",
     "test_gpio_trigger_rate_and_pulse_width_on_the_sim",
     "test_daemon_on_vivid_survives_a_camera_unplug",
+    "test_record_from_vivid_gives_a_recording_replay_accepts",
 }
 
 
