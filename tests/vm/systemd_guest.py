@@ -105,6 +105,8 @@ outputs:
   tracks_csv: /var/lib/mast-stereo/tracks.csv
 health:
   stale_s: 30.0   # a pair may take over 2 s under TCG
+  min_fps: 0.0
+  require_clock_sync: false   # the guest has no NTP
   leds: {kind: sysfs, ok: "mast:green:ok", fault: "mast:red:fault"}
 """
 
@@ -252,10 +254,33 @@ def watchdog() -> dict:
 
 
 def reload() -> dict:
+    """`systemctl reload` with a changed configuration (another tracks CSV): applied, same process."""
     pid = show("MainPID")["MainPID"]
-    run = sh("systemctl", "reload", UNIT, timeout_s=60)
-    time.sleep(3)
-    return {"reload": run, "pid_before": pid, "after": show("MainPID", "ActiveState", "NRestarts")}
+    config = Path("/etc/mast-stereo/config.yaml")
+    config.write_text(config.read_text().replace("/var/lib/mast-stereo/tracks.csv",
+                                                 "/var/lib/mast-stereo/tracks-reloaded.csv"))
+    run = sh("systemctl", "reload", UNIT, timeout_s=120)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not Path("/var/lib/mast-stereo/tracks-reloaded.csv").exists():
+        time.sleep(1)
+    journal = sh("journalctl", "-u", UNIT, "-o", "cat", "--no-pager")["out"]
+    return {"reload": run, "pid_before": pid, "after": show("MainPID", "ActiveState", "NRestarts"),
+            "applied": Path("/var/lib/mast-stereo/tracks-reloaded.csv").exists(),
+            "journal_reload": [line for line in journal.splitlines() if "reload" in line][-5:]}
+
+
+def selftest() -> dict:
+    """tools/selftest against the running unit; then with a corrupt calibration file named."""
+    good = sh("/opt/mast-stereo/venv/bin/mast-stereo", "selftest", "--config", "/etc/mast-stereo/config.yaml",
+              "--json", timeout_s=180)
+    bad_dir = Path("/run/mast-selftest")
+    bad_dir.mkdir(exist_ok=True)
+    (bad_dir / "calibration.yaml").write_text("baseline_m: [8.14\n")
+    (bad_dir / "config.yaml").write_text(Path("/etc/mast-stereo/config.yaml").read_text()
+                                         + f"calibration: {bad_dir / 'calibration.yaml'}\n")
+    bad = sh("/opt/mast-stereo/venv/bin/mast-stereo", "selftest", "--config", str(bad_dir / "config.yaml"),
+             timeout_s=180)
+    return {"good": good, "bad": bad}
 
 
 def stop() -> dict:
@@ -313,6 +338,7 @@ def main() -> int:
     step("daemon_leds", daemon_leds)
     step("watchdog", watchdog)
     step("reload", reload)
+    step("selftest", selftest)
     step("stop", stop)
     print("MAST-STEP end " + json.dumps({"s": 0, "value": {"boot_s": result["boot_s"], "end_s": uptime_s()}}),
           flush=True)
