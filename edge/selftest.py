@@ -39,7 +39,6 @@ from edge.sources import SourcePlan, plan_source
 PASS, FAIL, SKIP = "PASS", "FAIL", "SKIP"
 CAMERA_WAIT_S = 10.0  # longest wait for pairs from cameras the daemon is not using
 CAMERA_PAIRS = 5
-MIN_FREE_BYTES = 1 << 30
 KNOWN_RANGE_DISPARITY_PX = 5.0  # the known-answer pair: a ship at the range of 5 px disparity
 RECORDINGS_DIR = Path("/var/lib/mast-stereo")
 LED_STEP_S = 0.5  # each LED on, then off, this long
@@ -279,8 +278,10 @@ class Selftest:
     def check_disk(self) -> Check:
         where = RECORDINGS_DIR if RECORDINGS_DIR.is_dir() else self.config_path.resolve().parent
         free = shutil.disk_usage(where).free
-        detail = f"{free / 2**30:.1f} GiB free at {where}"
-        if free < MIN_FREE_BYTES:
+        assert self.config is not None
+        need_mb = self.config.health.min_free_disk_mb
+        detail = f"{free / 2**30:.1f} GiB free at {where} (needs {need_mb} MB)"
+        if free < need_mb * 2**20:
             return Check("disk", FAIL, detail, "free space for recordings: remove old recordings")
         return Check("disk", PASS, detail)
 

@@ -229,6 +229,7 @@ class HealthConfig:
     stale_s: float = setting(2.0, positive=True, max=600.0, doc="a stage silent this long is STALLED")
     min_fps: float = setting(5.0, min=0.0, doc="below this frame rate the appliance is DEGRADED")
     watchdog: bool = setting(True, doc="send WATCHDOG=1 to systemd while all stages are fresh")
+    min_free_disk_mb: int = setting(1024, min=0, doc="free space the recordings directory needs (selftest)")
     require_clock_sync: bool = setting(
         True, doc="an unsynchronised system clock is a fault (NMEA carries UTC); false on a bench unit")
     leds: LedsConfig = setting(default_factory=LedsConfig)

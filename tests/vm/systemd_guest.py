@@ -107,6 +107,7 @@ health:
   stale_s: 30.0   # a pair may take over 2 s under TCG
   min_fps: 0.0
   require_clock_sync: false   # the guest has no NTP
+  min_free_disk_mb: 50        # its disk is an overlay in 1 GiB of guest RAM
   leds: {kind: sysfs, ok: "mast:green:ok", fault: "mast:red:fault"}
 """
 

@@ -161,8 +161,8 @@ def test_reload_applies_a_changed_config_in_the_same_process(vm: dict) -> None:
 
 def test_selftest_passes_against_the_unit_and_names_a_corrupt_calibration(vm: dict) -> None:
     s = vm["selftest"]
-    assert s["good"]["rc"] == 0, s["good"]
     checks = {c["name"]: c["result"] for c in json.loads(s["good"]["out"])["checks"]}
+    assert s["good"]["rc"] == 0, [c for c in json.loads(s["good"]["out"])["checks"] if c["result"] == "FAIL"]
     assert checks["daemon"] == "PASS" and checks["cameras"] == "PASS", checks
     assert s["bad"]["rc"] == 1, s["bad"]
     failed = [line for line in s["bad"]["out"].splitlines() if " FAIL " in line]
