@@ -133,6 +133,9 @@ def test_daemon_lifecycle_under_a_real_notify_socket(tmp_path: Path, notify: Not
             time.sleep(0.2)
         second = mbpoll(port)
         assert second[27] != first[27]  # the counter moves while processing runs
+        end = time.monotonic() + 30
+        while len(notify.times("WATCHDOG=1")) < 6 and time.monotonic() < end:
+            time.sleep(0.2)
         pings = notify.times("WATCHDOG=1")
         gaps = [b - a for a, b in zip(pings, pings[1:], strict=False)]
         assert len(gaps) >= 4 and 0.5 < sorted(gaps)[len(gaps) // 2] < 1.5, gaps  # half of 2 s
@@ -319,13 +322,19 @@ def test_reload_without_camera_or_pipeline_change_keeps_tracks_and_numbers(tmp_p
         logging.getLogger().setLevel(logging.WARNING)
 
 
-def test_leds_follow_health_from_the_daemons_own_loop(tmp_path: Path, recording) -> None:
-    """Virtual LEDs: green heartbeat while OK, green and red blinking together while a camera reports
-    a fault (DEGRADED, no amber LED configured), back to the heartbeat, steady red once stopped."""
+def test_an_unplugged_camera_is_degraded_on_leds_and_modbus_while_the_pings_go_on(
+        tmp_path: Path, recording, monkeypatch) -> None:
+    """Virtual LEDs: green heartbeat while OK; a camera reporting a fault (unplugged) makes it DEGRADED:
+    green and red blink together (no amber LED configured), the Modbus STATUS word says DEGRADED, and
+    WATCHDOG=1 goes on; replugged, OK again; steady red once stopped."""
     from drivers.leds.virtual import VirtualLedPanel
     from drivers.notify import VirtualNotifier
+    from edge.health import Status
 
-    app = _replay_appliance(tmp_path, recording("akashi-crossing", 30), VirtualNotifier())
+    monkeypatch.setenv("WATCHDOG_USEC", "2000000")
+    monkeypatch.delenv("WATCHDOG_PID", raising=False)
+    notifier = VirtualNotifier()
+    app = _replay_appliance(tmp_path, recording("akashi-crossing", 30), notifier)
     leds = app.leds
     assert isinstance(leds, VirtualLedPanel)
     stop = threading.Event()
@@ -348,8 +357,15 @@ def test_leds_follow_health_from_the_daemons_own_loop(tmp_path: Path, recording)
         time.sleep(2.0)
         t_bad = time.monotonic_ns()
         time.sleep(2.0)
-        assert app.health.snapshot().state.value == "DEGRADED"
+        snap = app.health.snapshot()
+        assert snap.state.value == "DEGRADED" and "camera_right" in snap.reason
+        assert snap.status_bits & Status.DEGRADED and not snap.status_bits & Status.CAMERA_RIGHT
         assert toggles("ok", t_bad) >= 4 and toggles("fault", t_bad) >= 4  # blinking together: amber
+        pings = notifier.messages.count("WATCHDOG=1")
+        app.source.camera_faults = lambda: {"left": None, "right": None}  # type: ignore[method-assign]
+        time.sleep(2.0)
+        assert app.health.snapshot().state.value == "OK"
+        assert notifier.messages.count("WATCHDOG=1") > pings  # never stopped
     finally:
         stop.set()
         runner.join(timeout=5.0)

@@ -279,7 +279,9 @@ def test_stalled_port_does_not_slow_processing(tmp_path: Path) -> None:
         reader.kill()
         reader.wait()
     rate = {name: 1.0 / statistics.median(d) for name, d in steps.items()}  # steps/s, robust to load spikes
-    assert rate["pty"] >= 0.8 * rate["healthy"] and rate["virtual"] >= 0.8 * rate["healthy"], rate
+    # a blocked write would cost 0.3 s (pty) or forever (virtual) per step: under 1 % of the healthy
+    # rate; half of it leaves room for the drop path's extra work and a loaded CI machine (0.77 seen)
+    assert rate["pty"] >= 0.5 * rate["healthy"] and rate["virtual"] >= 0.5 * rate["healthy"], rate
     assert longest_publish_s < 0.1  # a blocked write would take 0.3 s (pty) or forever (virtual)
     assert pty_stats.write_timeouts >= 1 and pty_stats.stalled and pty_stats.dropped > 0
     assert pty_stats.queued <= 8 and virtual_stats.queued <= 8 and virtual_stats.dropped > 0
