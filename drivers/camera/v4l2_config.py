@@ -55,6 +55,14 @@ SHARED = {
 PER_CAMERA = {"device", "subdevice", "input", "controls"}
 
 
+class CamerasConfigError(ValueError):
+    """A mistake in the `cameras:` block: which key (e.g. "cameras.left") and what is wrong with it."""
+
+    def __init__(self, key: str, problem: str, sep: str = ": ") -> None:
+        super().__init__(f"{key}{sep}{problem}")
+        self.key, self.problem = key, problem
+
+
 @dataclass(frozen=True)
 class CamerasConfig:
     left: CameraSettings
@@ -71,10 +79,11 @@ def _setting_controls(name: str, spec: object) -> dict[str, object]:
     if spec is None or spec == "auto":
         return {}
     if not isinstance(spec, Mapping) or "control" not in spec or "value" not in spec:
-        raise ValueError(f"cameras.{name}: 'auto' or {{control: NAME, value: V[, mode_control, mode_value]}}")
+        raise CamerasConfigError(f"cameras.{name}",
+                                 "'auto' or {control: NAME, value: V[, mode_control, mode_value]}")
     unknown = set(spec) - {"control", "value", "mode_control", "mode_value"}
     if unknown:
-        raise ValueError(f"cameras.{name}: unknown key(s) {', '.join(sorted(unknown))}")
+        raise CamerasConfigError(f"cameras.{name}", f"unknown key(s) {', '.join(sorted(unknown))}")
     out: dict[str, object] = {}
     if "mode_control" in spec:
         out[str(spec["mode_control"])] = spec["mode_value"]
@@ -85,14 +94,17 @@ def _setting_controls(name: str, spec: object) -> dict[str, object]:
 def cameras_from_config(block: Mapping) -> CamerasConfig:
     """Validate a `cameras:` block of kind v4l2 and build its settings and trigger."""
     if block.get("kind") != "v4l2":
-        raise ValueError(f"cameras.kind must be v4l2 here, not {block.get('kind')!r}")
+        raise CamerasConfigError("cameras.kind", f"must be v4l2 here, not {block.get('kind')!r}", " ")
     unknown = set(block) - SHARED
     if unknown:
-        raise ValueError(f"cameras: unknown key(s) {', '.join(sorted(unknown))}")
+        raise CamerasConfigError("cameras", f"unknown key(s) {', '.join(sorted(unknown))}")
     for key in ("left", "right", "width", "height"):
         if key not in block:
-            raise ValueError(f"cameras: {key} is required")
-    fmt = pixel_format(str(block.get("pixel_format", "GREY"))).name
+            raise CamerasConfigError(f"cameras.{key}", "is required")
+    try:
+        fmt = pixel_format(str(block.get("pixel_format", "GREY"))).name
+    except ValueError as exc:
+        raise CamerasConfigError("cameras.pixel_format", str(exc)) from None
     fps = block.get("fps")
     shared_controls = {
         **_setting_controls("exposure", block.get("exposure")),
@@ -103,10 +115,11 @@ def cameras_from_config(block: Mapping) -> CamerasConfig:
     for side in ("left", "right"):
         cam = block[side]
         if not isinstance(cam, Mapping) or "device" not in cam:
-            raise ValueError(f"cameras.{side} needs a device (a udev name like /dev/mast/cam-{side})")
+            raise CamerasConfigError(f"cameras.{side}",
+                                     f"needs a device (a udev name like /dev/mast/cam-{side})", " ")
         extra = set(cam) - PER_CAMERA
         if extra:
-            raise ValueError(f"cameras.{side}: unknown key(s) {', '.join(sorted(extra))}")
+            raise CamerasConfigError(f"cameras.{side}", f"unknown key(s) {', '.join(sorted(extra))}")
         sides.append(
             CameraSettings(
                 device=str(cam["device"]),
@@ -121,7 +134,10 @@ def cameras_from_config(block: Mapping) -> CamerasConfig:
                 skip_frames=int(block.get("skip_frames", 0)),
             )
         )
-    trigger = trigger_from_config(block.get("trigger"), fps=fps)
+    try:
+        trigger = trigger_from_config(block.get("trigger"), fps=fps)
+    except ValueError as exc:  # the trigger's own checks, and its camera-control preset's
+        raise CamerasConfigError("cameras.trigger", str(exc)) from None
     skew_ms = block.get("max_skew_ms")
     return CamerasConfig(
         sides[0], sides[1], trigger, None if skew_ms is None else round(float(skew_ms) * 1e6)

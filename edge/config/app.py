@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import ipaddress
-import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -302,17 +301,14 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
 
 def check_v4l2(cams: V4l2Cameras, file: str | Path | None) -> None:
     """The driver's own checks of the nested blocks, as errors naming file and key (no device opened)."""
-    from drivers.camera.v4l2_config import cameras_from_config
+    from drivers.camera.v4l2_config import CamerasConfigError, cameras_from_config
 
     try:
         cameras_from_config(cams.block())
-    except (ValueError, TypeError, KeyError) as exc:
-        text = str(exc).strip("'\"")
-        match = re.match(r"(cameras(?:\.[\w\[\]]+)*)[:]?\s+(.*)", text)
-        key, problem = (match.group(1), match.group(2)) if match else ("cameras", text)
-        if key == "cameras" and text.startswith("trigger"):
-            key = "cameras.trigger"
-        raise ConfigError(file, key, f"a valid setting ({problem})") from None
+    except CamerasConfigError as exc:
+        raise ConfigError(file, exc.key, f"a valid setting ({exc.problem})") from None
+    except (ValueError, TypeError) as exc:  # a value the driver could not convert (int(), float())
+        raise ConfigError(file, "cameras", f"a valid setting ({exc})") from None
     if cams.left.get("device") == cams.right.get("device"):
         raise ConfigError(file, "cameras.right.device", "a device other than cameras.left's",
                           cams.right.get("device"))
