@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 import serial
+from helpers import free_port
 
 from drivers import modbus
 from drivers.modbus import (
@@ -49,12 +50,6 @@ def image(order: WordOrder = WordOrder.HIGH_FIRST) -> tuple[int, ...]:
     first = build_snapshot(fixes[:1], HEALTH, ident, SlotAssignment.empty(32), utc_ns=T_NS)
     return build_snapshot(fixes, HEALTH, ident, first.assignment, utc_ns=T_NS,
                           target_numbers={4711: 7}).registers
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def mbpoll(*args: str) -> tuple[int, dict[int, int], str]:

@@ -23,18 +23,13 @@ from pathlib import Path
 
 import pytest
 import yaml
+from helpers import free_port
 
 from edge.config.app import load_config
 from edge.daemon import Appliance
 from edge.errors import EX_CONFIG
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def start(config: Path, *extra: str, env: dict | None = None) -> subprocess.Popen:

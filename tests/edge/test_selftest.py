@@ -11,18 +11,12 @@ import time
 from pathlib import Path
 
 import yaml
-from helpers import run_cli
+from helpers import free_port, run_cli
 
 from drivers.clock import VirtualClock
 from edge.selftest import FAIL, PASS, Selftest
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def write_config(tmp_path: Path, port: int, **extra: object) -> Path:
