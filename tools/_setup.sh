@@ -27,6 +27,7 @@ fi
 # The appliance VM for tests/vm (qemu + Debian's kernel with vivid, gpio-sim and uleds), built outside
 # the repository by the shared harness when its artifacts are missing; tests/vm/vmharness.py runs it.
 VM_HARNESS="$ROOT/../shared/tools/appliance-vm"
+[[ -d "$VM_HARNESS" ]] || VM_HARNESS=/work/shared/tools/appliance-vm  # a clone outside the workplace
 VM_DIR="${V4L2VM_DIR:-/var/tmp/appliance-vm}"
 if [[ -x "$VM_HARNESS/build.sh" ]]; then
     if [[ ! -e "$VM_DIR/vmlinuz" || ! -e "$VM_DIR/initramfs.cpio.gz" || ! -s "$VM_DIR/kmods/gpio-sim.ko" ]] \

@@ -26,9 +26,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from vmharness import HARNESS as SHARED_HARNESS
 
 ROOT = Path(__file__).resolve().parents[2]
-HARNESS = Path(os.environ.get("APPLIANCE_VM", ROOT.parent / "shared" / "tools" / "appliance-vm"))
+HARNESS = Path(os.environ["APPLIANCE_VM"]) if "APPLIANCE_VM" in os.environ else SHARED_HARNESS
 VM_DIR = Path(os.environ.get("V4L2VM_DIR", "/var/tmp/appliance-vm"))
 ROOTFS_DEBS = "systemd udev dbus libnss-systemd python3-venv mbpoll procps"  # procps: /bin/kill (ExecReload)
 ROOTFS = Path(os.environ.get("MAST_VM_ROOTFS", VM_DIR / "rootfs-systemd"))

@@ -25,7 +25,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-HARNESS = ROOT.parent / "shared" / "tools" / "appliance-vm"
+# the shared harness beside the checkout; a clone elsewhere (e.g. /tmp) finds the workplace's copy
+HARNESS = next((p for p in (ROOT.parent / "shared" / "tools" / "appliance-vm",
+                            Path("/work/shared/tools/appliance-vm")) if p.is_dir()),
+               ROOT.parent / "shared" / "tools" / "appliance-vm")
 RUN_SH = HARNESS / "run.sh"
 VM_DIR = Path(os.environ.get("V4L2VM_DIR", "/var/tmp/appliance-vm"))
 VENV_PYTHON = ROOT / ".venv" / "bin" / "python"
