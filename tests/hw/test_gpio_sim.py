@@ -83,6 +83,7 @@ def test_gpio_trigger_rate_and_pulse_width_on_the_sim(sim_chip) -> None:
         (tj - ti) / (kj - ki)
         for i, (ki, ti) in enumerate(zip(slots, rises, strict=True))
         for kj, tj in zip(slots[i + 1 :], rises[i + 1 :], strict=True)
+        if kj != ki  # two edges in one slot: an emulator stall delayed one; it says nothing of the rate
     )
     slope_ns = slopes[len(slopes) // 2]
     measured_rate = 1e9 / slope_ns
