@@ -27,6 +27,9 @@ from edge.sim.simulator import live_source
 log = logging.getLogger(__name__)
 
 READ_TIMEOUT_S = 0.5  # the longest a live source's read waits before it reports its cameras' state
+# a camera away is retried after 0.5 s, doubling to at most 2 s: a camera replugged after any absence
+# streams again within ~2.5 s (opening a missing node costs nothing worth saving)
+BACKOFF_S = (0.5, 2.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,5 +93,6 @@ def _v4l2_plan(config: AppConfig, cams: V4l2Cameras, config_file: str | Path | N
                    f"{cams.pixel_format}, {built.trigger.describe()}")
     calibration = Calibration(config.calibration.rig, config.effective_site)
     # a short read timeout: camera faults reach health within half a second, not at the next pair
-    return SourcePlan(lambda: cameras_from_config(cams.block()).source(read_timeout_s=READ_TIMEOUT_S),
+    return SourcePlan(lambda: cameras_from_config(cams.block()).source(read_timeout_s=READ_TIMEOUT_S,
+                                                                       backoff_s=BACKOFF_S),
                       calibration, rate_hz, description, monotonic_stamps=True)
