@@ -64,6 +64,7 @@ QUEUE_WAIT_S = 0.2
 READY_WAIT_S = 60.0  # longest wait for the first pair before READY=1 is sent anyway
 EXTEND_S = 5.0  # each EXTEND_TIMEOUT_USEC while waiting for the first pair
 CLOCK_CHECK_S = 10.0  # how often the TIME_SYNC status bit is refreshed from the kernel
+LED_POLL_NS = 100_000_000  # the LEDs take up a health change within 0.1 s
 JOIN_S = 0.5  # per thread at shutdown (a camera blocked mid-frame is left behind): exit within 2 s
 
 
@@ -317,9 +318,10 @@ class Appliance:
             now_ns = time.monotonic_ns()
             if now_ns >= end_ns:
                 return
-            if self.leds is not None:  # the LEDs follow the health at every edge, not once a period
+            next_ns = end_ns
+            if self.leds is not None:  # the LEDs follow the health within LED_POLL_NS, not once a period
                 self.leds.show_health(self.health.snapshot().state)
-            next_ns = end_ns if self.leds is None else min(end_ns, self.leds.tick(now_ns))
+                next_ns = min(end_ns, self.leds.tick(now_ns), now_ns + LED_POLL_NS)
             stop.wait(max(0, next_ns - now_ns) / 1e9)
 
     def status_line(self, snap: HealthSnapshot) -> str:

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import functools
 import os
 import socket
 import struct
@@ -40,7 +39,7 @@ from drivers.trigger.virtual import VirtualTrigger
 from edge.config.app import config_from_dict
 from edge.daemon import Appliance
 from edge.health import Status
-from edge.sources import BACKOFF_S, READ_TIMEOUT_S
+from edge.sources import BACKOFF_S, read_timeout_s
 
 RATE_HZ = 10.0  # the scenario's frame rate
 SCENARIO = "akashi-crossing"
@@ -48,15 +47,24 @@ STATUS_REG = 17  # health block 16 + 1 (OUTPUTS.md)
 FAULT_REG = 18
 
 
-@functools.cache
-def scene_pair() -> tuple[np.ndarray, np.ndarray]:
-    """One rendered pair of the scenario (rendered once per process: ~5 s on a busy machine)."""
-    from edge.sim.scenario import load_scenario
-    from edge.sim.simulator import Simulation
+_SCENE: list[tuple[np.ndarray, np.ndarray]] = []
 
-    pair = Simulation(load_scenario(SCENARIO), seed=0).pair(50)
-    assert pair is not None
-    return pair.left, pair.right
+
+def use_scene(left: np.ndarray, right: np.ndarray) -> None:
+    """Show this pair of the scenario instead of rendering one (the tests reuse a recording's)."""
+    _SCENE[:] = [(left, right)]
+
+
+def scene_pair() -> tuple[np.ndarray, np.ndarray]:
+    """One rendered pair of the scenario, the ship at ~1.5 km (rendered once per process: ~5 s)."""
+    if not _SCENE:
+        from edge.sim.scenario import load_scenario
+        from edge.sim.simulator import Simulation
+
+        pair = Simulation(load_scenario(SCENARIO), seed=0).pair(29)
+        assert pair is not None
+        _SCENE.append((pair.left, pair.right))
+    return _SCENE[0]
 
 
 def free_port() -> int:
@@ -252,7 +260,8 @@ class Bench:
         left, right = (CameraSettings(f"/dev/fake-{s}", 720, 480, "GREY", buffers=4)
                        for s in ("left", "right"))
         skew_ns = None if self.max_skew_ms is None else round(self.max_skew_ms * 1e6)
-        return V4L2PairSource(left, right, trigger, max_skew_ns=skew_ns, read_timeout_s=READ_TIMEOUT_S,
+        return V4L2PairSource(left, right, trigger, max_skew_ns=skew_ns,
+                              read_timeout_s=read_timeout_s(RATE_HZ),
                               backoff_s=BACKOFF_S, open_camera=lambda s: V4L2Camera(s, kernel=self.kernel),
                               realtime_offset=lambda: realtime_offset_ns() + round(self.utc_step_s * 1e9))
 

@@ -22,7 +22,7 @@ from edge.faults._rig import Bench, degraded, ok
 from edge.faults.matrix import Case, Row
 from edge.health import Status
 
-UNPLUG_S = 1.0
+UNPLUG_S = 0.8
 DEGRADED_WITHIN_S, OK_WITHIN_S = 1.0, 5.0
 CAMERA_BIT = {"left": Status.CAMERA_LEFT, "right": Status.CAMERA_RIGHT}
 
@@ -73,7 +73,7 @@ def camera_unplug(workdir: Path) -> list[Row]:
         rows = []
         for sides in (("left",), ("right",), ("left", "right")):
             rows.append(_unplug_row(bench, sides))
-            time.sleep(0.5)
+            time.sleep(0.3)
         return rows
 
 
