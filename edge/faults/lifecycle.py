@@ -188,7 +188,7 @@ def hung_stage(workdir: Path) -> list[Row]:
             _hang(bench, what, release, hung_at)
             time.sleep(limit_s + 0.6)
             pings = bench.notify.times("WATCHDOG=1")
-            statuses = [m for t, m in bench.notify.messages if hung_at and t > hung_at[0] + limit_s
+            statuses = [m for t, m in bench.notify.messages if hung_at and t > hung_at[0] + limit_s / 2 + 0.2
                         and m.startswith("STATUS=")]
             release.set()
             t_rel = time.monotonic()
