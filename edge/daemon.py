@@ -16,6 +16,11 @@ Lifecycle under systemd (Type=notify):
   camera gone, a port gone) keeps the stages beating with a fault: DEGRADED, pings continue.
   Only stuck code (a thread that stopped beating) stops them.
 - STATUS= carries one line: state, frame rate, ships and the worst fault.
+- While no pair comes (a camera gone, no trigger), the processing thread republishes the health
+  to the Modbus registers every QUEUE_WAIT_S, so the PLC's STATUS word shows DEGRADED within a
+  second instead of freezing at its last value; the LEDs follow the health at every blink edge.
+- `record` (run --record DIR): the processed pairs also go to a recording (edge/live_record.py);
+  a write failure (disk full) stops the recording with a fault, never the tracking.
 - SIGTERM: STOPPING=1, every live track sent once more as lost, outputs flushed and closed.
 - SIGHUP: the configuration file is loaded and checked first; a broken one is logged and the
   daemon runs on. Otherwise RELOADING=1, the changed parts are swapped in between two pairs,
@@ -44,6 +49,7 @@ from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthMonitor, HealthSnapshot, HealthState, Status, standard_stages
 from edge.journal import MESSAGE_IDS, FaultLog
+from edge.live_record import LiveRecorder, recording_stage
 from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Pipeline
@@ -58,6 +64,7 @@ QUEUE_WAIT_S = 0.2
 READY_WAIT_S = 60.0  # longest wait for the first pair before READY=1 is sent anyway
 EXTEND_S = 5.0  # each EXTEND_TIMEOUT_USEC while waiting for the first pair
 CLOCK_CHECK_S = 10.0  # how often the TIME_SYNC status bit is refreshed from the kernel
+LED_POLL_NS = 100_000_000  # the LEDs take up a health change within 0.1 s
 JOIN_S = 0.5  # per thread at shutdown (a camera blocked mid-frame is left behind): exit within 2 s
 
 
@@ -107,9 +114,11 @@ def _plan(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
     return plan
 
 
-def _health(config: AppConfig, plan: SourcePlan, extra_nmea: bool) -> HealthMonitor:
+def _health(config: AppConfig, plan: SourcePlan, extra_nmea: bool, recording: bool = False) -> HealthMonitor:
     stages = standard_stages(output_stages(config.outputs, extra_nmea=extra_nmea),
                              stall_after_s=config.health.stale_s)
+    if recording:
+        stages += (recording_stage(config.health.stale_s),)
     health = HealthMonitor(stages, min_rate_hz=config.health.min_fps or None)
     health.set_flags(Status.CALIBRATION_VALID)  # the plan loaded and checked it
     health.set_flags(Status.SITE_SURVEYED, plan.calibration.site is not None)
@@ -121,10 +130,12 @@ class Appliance:
 
     def __init__(self, config: AppConfig, config_file: str | Path | None, plan: SourcePlan,
                  pipeline: Pipeline, outputs: Outputs, health: HealthMonitor, notifier: Notifier,
-                 on_fixes: FixCallback | None = None, extra_nmea: Sequence[NmeaStreamOutput] = ()) -> None:
+                 on_fixes: FixCallback | None = None, extra_nmea: Sequence[NmeaStreamOutput] = (),
+                 recorder: LiveRecorder | None = None) -> None:
         self.config, self.config_file, self.plan = config, config_file, plan
         self.pipeline, self.outputs, self.health = pipeline, outputs, health
         self.notifier, self.on_fixes, self.extra_nmea = notifier, on_fixes, tuple(extra_nmea)
+        self.recorder = recorder
         self.on_health: HealthCallback | None = None
         self.leds: LedPanel | None = build_leds(config.health.leds)
         self.clock: Clock = SystemClock()
@@ -144,12 +155,17 @@ class Appliance:
 
     @classmethod
     def build(cls, config: AppConfig, config_file: str | Path | None, notifier: Notifier,
-              on_fixes: FixCallback | None = None,
-              extra_nmea: Sequence[NmeaStreamOutput] = ()) -> Appliance:
+              on_fixes: FixCallback | None = None, extra_nmea: Sequence[NmeaStreamOutput] = (),
+              record: str | Path | None = None) -> Appliance:
+        """Everything checked and built, nothing opened; `record`: also record the processed pairs
+        there (OSError if that directory cannot be created: exists and not empty, not writable)."""
         plan = _plan(config, config_file)
-        health = _health(config, plan, bool(extra_nmea))
-        return cls(config, config_file, plan, cls._pipeline(config, plan), cls._outputs(config, plan, health,
-                   extra_nmea), health, notifier, on_fixes, extra_nmea)
+        health = _health(config, plan, bool(extra_nmea), recording=record is not None)
+        pipeline, outputs = cls._pipeline(config, plan), cls._outputs(config, plan, health, extra_nmea)
+        recorder = None if record is None else \
+            LiveRecorder(record, plan.calibration, plan.fps, plan.description)
+        return cls(config, config_file, plan, pipeline, outputs, health, notifier, on_fixes, extra_nmea,
+                   recorder)
 
     @staticmethod
     def _pipeline(config: AppConfig, plan: SourcePlan) -> Pipeline:
@@ -195,8 +211,12 @@ class Appliance:
         faults = source.camera_faults()
         if frames == 0 and not any(faults.values()):
             faults = {side: "no frame pairs (trigger?)" for side in faults}
-        for side, fault in faults.items():
-            self.health.beat(f"camera_{side}", fault=fault, frames=frames)
+        counters = {k: v for k, v in source.counters.items() if isinstance(v, int)}
+        for side, fault in faults.items():  # drops, unpaired frames, reconnects of this camera
+            mine = {k.removesuffix(f"_{side}"): v for k, v in counters.items() if k.endswith(f"_{side}")}
+            self.health.beat(f"camera_{side}", fault=fault, frames=frames,
+                             counters={**mine, "source_dropped_pairs": source.dropped,
+                                       "source_skipped_pairs": source.skipped})
 
     def _process(self, stop: threading.Event) -> None:
         while not stop.is_set():
@@ -205,6 +225,10 @@ class Appliance:
                 if self.queue.ended:
                     break
                 self.health.beat("processing")  # idle but alive: waiting for pairs is not stuck
+                with self._step_lock:  # no pair: the PLC still sees the health change (a camera gone)
+                    self.outputs.publish_health(self.last_fixes, time.time_ns())
+                    if self.recorder is not None:
+                        self.recorder.beat(self.health)
                 continue
             with self._step_lock:
                 self._step(*got)
@@ -222,6 +246,9 @@ class Appliance:
                                    "failed_pairs": self.pipeline.counters.failed})
         utc_ns = pair.t_ns + self.pipeline.utc_offset_ns
         self.outputs.publish(fixes, utc_ns)
+        if self.recorder is not None:
+            self.recorder.offer(pair)
+            self.recorder.beat(self.health)
         if self.on_fixes is not None:
             self.on_fixes(utc_ns, fixes)
         self.steps += 1  # after publishing: READY=1 waits for the first pair to reach the outputs
@@ -277,6 +304,8 @@ class Appliance:
             processing.join(timeout=JOIN_S)
             self._send_lost()
             self.outputs.close()
+            if self.recorder is not None:
+                self.recorder.close()
             if self.leds is not None:
                 self.leds.close()  # steady red: not running
         return 0
@@ -289,7 +318,10 @@ class Appliance:
             now_ns = time.monotonic_ns()
             if now_ns >= end_ns:
                 return
-            next_ns = end_ns if self.leds is None else min(end_ns, self.leds.tick(now_ns))
+            next_ns = end_ns
+            if self.leds is not None:  # the LEDs follow the health within LED_POLL_NS, not once a period
+                self.leds.show_health(self.health.snapshot().state)
+                next_ns = min(end_ns, self.leds.tick(now_ns), now_ns + LED_POLL_NS)
             stop.wait(max(0, next_ns - now_ns) / 1e9)
 
     def status_line(self, snap: HealthSnapshot) -> str:
@@ -336,7 +368,7 @@ class Appliance:
         try:
             config = load_config(self.config_file)
             plan = _plan(config, self.config_file)
-            health = _health(config, plan, bool(self.extra_nmea))
+            health = _health(config, plan, bool(self.extra_nmea), recording=self.recorder is not None)
             outputs = self._outputs(config, plan, health, self.extra_nmea) \
                 if (config.outputs, config.health) != (self.config.outputs, self.config.health) else None
         except ConfigError as exc:

@@ -26,7 +26,11 @@ from edge.sim.simulator import live_source
 
 log = logging.getLogger(__name__)
 
-READ_TIMEOUT_S = 0.5  # the longest a live source's read waits before it reports its cameras' state
+READ_TIMEOUT_S = 0.4  # the longest a live source's read waits before it reports its cameras' state
+READ_PERIODS = 2.5  # ... but never less than this many trigger periods (a slow trigger is no fault)
+# a camera away is retried after 0.5 s, doubling to at most 2 s: a camera replugged after any absence
+# streams again within ~2.5 s (opening a missing node costs nothing worth saving)
+BACKOFF_S = (0.5, 2.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,6 +42,12 @@ class SourcePlan:
     fps: float
     description: str
     monotonic_stamps: bool  # pairs stamped on CLOCK_MONOTONIC (live); else a recording's own clock
+
+
+def read_timeout_s(rate_hz: float) -> float:
+    """How long the daemon's read of a live pair source waits: READ_TIMEOUT_S, or READ_PERIODS
+    trigger periods at a slow rate (a shorter wait would report every gap between pairs as a fault)."""
+    return max(READ_TIMEOUT_S, READ_PERIODS / rate_hz) if rate_hz > 0 else READ_TIMEOUT_S
 
 
 def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
@@ -89,6 +99,8 @@ def _v4l2_plan(config: AppConfig, cams: V4l2Cameras, config_file: str | Path | N
     description = (f"v4l2 {built.left.device} + {built.right.device}, {cams.width}x{cams.height} "
                    f"{cams.pixel_format}, {built.trigger.describe()}")
     calibration = Calibration(config.calibration.rig, config.effective_site)
-    # a short read timeout: camera faults reach health within half a second, not at the next pair
-    return SourcePlan(lambda: cameras_from_config(cams.block()).source(read_timeout_s=READ_TIMEOUT_S),
+    # a short read timeout: camera faults reach health within 0.4 s, not at the next pair
+    timeout_s = read_timeout_s(rate_hz)
+    return SourcePlan(lambda: cameras_from_config(cams.block()).source(read_timeout_s=timeout_s,
+                                                                       backoff_s=BACKOFF_S),
                       calibration, rate_hz, description, monotonic_stamps=True)

@@ -80,6 +80,11 @@ class FramePairSource(ABC):
         Sources without per-camera state report none: their failures surface as exceptions."""
         return {"left": None, "right": None}
 
+    @property
+    def counters(self) -> dict:
+        """Counters for health (V4L2PairSource adds per-camera drops, unpaired frames, reconnects)."""
+        return {"dropped_pairs": self.dropped, "skipped_pairs": self.skipped}
+
     def close(self) -> None:
         """Release files/devices; `read()` returns None afterwards. Safe to call twice."""
         self._closed = True

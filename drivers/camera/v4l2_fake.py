@@ -11,7 +11,10 @@ request to what it has, and QBUF/DQBUF rewrite the structure they are given.
 
 The test (or a `VirtualTrigger` pulse) calls `device.produce(...)`: the oldest
 queued buffer gets the pixels and metadata (sequence, timestamp, flags) and
-becomes dequeueable. `device.drop_next(n)` makes the next n frames vanish
+becomes dequeueable; `produce(..., pulse=k)` also records the trigger pulse the
+frame belongs to in `device.pulses` (its timestamp -> k), the ground truth a
+fault test checks processed pairs against (a real driver has no such thing).
+`device.drop_next(n)` makes the next n frames vanish
 (their sequence numbers are skipped, as a driver that dropped them reports);
 `device.unplug()` makes every ioctl fail with ENODEV and poll report
 POLLERR|POLLHUP until `replug()`; `device.log` records the ioctl names.
@@ -112,12 +115,15 @@ class FakeDevice:
         self.streaming, self.gone, self.sequence, self._drop = False, False, 0, 0
         self.input = 0
         self.log: list[str | None] = []  # ioctl names, in order
+        self.pulses: dict[int, int] = {}  # ground truth: timestamp of a delivered frame -> its pulse
         self.cond = threading.Condition()
 
     # --- what a test drives ---------------------------------------------------------------------
 
-    def produce(self, t_ns: int, image: np.ndarray | bytes | None = None, *, flags: int = 0) -> bool:
-        """A frame exposed at t_ns: into the oldest queued buffer (False if none queued or not streaming)."""
+    def produce(self, t_ns: int, image: np.ndarray | bytes | None = None, *, flags: int = 0,
+                pulse: int | None = None) -> bool:
+        """A frame exposed at t_ns: into the oldest queued buffer (False if none queued or not streaming).
+        `pulse`: the trigger pulse it answers, kept in `pulses[t_ns]` if the frame is delivered."""
         with self.cond:
             seq = self.sequence
             self.sequence = (self.sequence + 1) % (1 << 32)
@@ -130,6 +136,8 @@ class FakeDevice:
             data = self.encode(image if image is not None else self.pattern(seq))
             self.buffers[index][: len(data)] = data
             self.done.append((index, len(data), seq, t_ns, self.timestamp_flags | flags))
+            if pulse is not None:
+                self.pulses[t_ns] = pulse
             self.cond.notify_all()
             return True
 

@@ -19,7 +19,8 @@ CLOCK_MONOTONIC (the kernel's buffer timestamps; a camera whose driver does not
 stamp on CLOCK_MONOTONIC is stamped at dequeue instead), with each camera's own
 stamp in t_left_ns/t_right_ns. `realtime_offset_ns` is CLOCK_REALTIME minus
 CLOCK_MONOTONIC sampled as the pair is made, so the daemon stamps UTC as
-`pair.t_utc_ns` = realtime at exposure.
+`pair.t_utc_ns` = realtime at exposure (`realtime_offset` replaces that sampling in tests that
+step the wall clock: the machine's own clock is never touched).
 
 Faults and reconnection: a camera that disappears (CameraGone: ENODEV, EIO, a
 driver reset) or cannot be opened or configured is closed and reopened with
@@ -107,6 +108,7 @@ class V4L2PairSource(FramePairSource):
         stall_periods: float = 5.0,
         open_camera: Callable[[CameraSettings], V4L2Camera] = V4L2Camera,
         clock: Callable[[], int] = time.monotonic_ns,
+        realtime_offset: Callable[[], int] | None = None,  # tests step the wall clock through this
     ) -> None:
         super().__init__()
         self.settings = (left, right)
@@ -121,6 +123,7 @@ class V4L2PairSource(FramePairSource):
         self.read_timeout_s = read_timeout_s if read_timeout_s is not None else max(2.0, 5 * period_s)
         self.backoff_s, self.poll_s, self.stall_periods = backoff_s, poll_s, stall_periods
         self._open, self._clock = open_camera, clock
+        self._realtime_offset = realtime_offset or realtime_offset_ns
         self._cond = threading.Condition()
         self._pairs: deque[FramePair] = deque()
         self._queue_pairs = queue_pairs
@@ -231,7 +234,7 @@ class V4L2PairSource(FramePairSource):
                     right.sequence,
                     left.t_ns,
                     right.t_ns,
-                    realtime_offset_ns(),
+                    self._realtime_offset(),
                 )
                 if len(self._pairs) >= self._queue_pairs:
                     self._pairs.popleft()

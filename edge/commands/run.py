@@ -6,7 +6,10 @@ any device (a mistake exits 78 with one line naming file and key), then runs
 `--seconds`; SIGHUP reloads the configuration file (`systemctl reload`). READY=1,
 STATUS=, WATCHDOG=1, RELOADING=1 and STOPPING=1 go to systemd when $NOTIFY_SOCKET is
 set; under systemd the log goes to the journal as structured records. `--print-nmea`
-also writes the NMEA sentences to stdout (the demo uses it).
+also writes the NMEA sentences to stdout (the demo uses it). `--record DIR` also records the
+processed pairs into a new recording directory (DESIGN.md's format, what `record` writes and
+`replay` reads); a write failure (a full disk) stops only the recording, shown as a fault on the
+`recording` health stage; a DIR that cannot be created exits 73 before anything opens.
 """
 
 from __future__ import annotations
@@ -24,11 +27,15 @@ from edge.daemon import Appliance
 from edge.journal import setup_logging
 from edge.outputs.nmea_stream import NmeaStreamOutput
 
+EX_CANTCREAT = 73
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", required=True, metavar="FILE", help="appliance configuration (YAML)")
     parser.add_argument("--seconds", type=float, metavar="N", help="stop after N seconds (default: run)")
     parser.add_argument("--print-nmea", action="store_true", help="also write NMEA sentences to stdout")
+    parser.add_argument("--record", metavar="DIR",
+                        help="also record the processed pairs into this new recording directory")
     parser.add_argument("--watch", action="store_true",
                         help="show a live table of the tracks on stdout (refreshed in place on a terminal)")
 
@@ -37,7 +44,12 @@ def run(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     setup_logging(config.logging.level)
     extra = [NmeaStreamOutput(sys.stdout)] if args.print_nmea else []
-    appliance = Appliance.build(config, args.config, SystemdNotifier(), extra_nmea=extra)
+    try:
+        appliance = Appliance.build(config, args.config, SystemdNotifier(), extra_nmea=extra,
+                                    record=args.record)
+    except OSError as exc:  # --record DIR exists or cannot be created (ConfigError is exit 78, elsewhere)
+        print(f"mast-stereo run: --record: {exc}", file=sys.stderr)
+        return EX_CANTCREAT
     if args.watch:
         view = LiveTable(sys.stdout, lambda fixes: appliance.outputs.target_numbers(fixes))
         appliance.on_fixes, appliance.on_health = view.update, view.draw

@@ -66,6 +66,7 @@ class Outputs:
         self.health = health
         self.outputs: list[Output] = []
         self.sent: Counter[str] = Counter()  # items published since start, per unit
+        self.health_images = 0  # Modbus images republished while no pair came (publish_health)
         for out in outputs:
             self.add(out)
 
@@ -122,6 +123,18 @@ class Outputs:
             counters[out.unit] = self.sent[out.unit]
         self._beat(stage, faults, counters)
         return self.health.snapshot()
+
+    def publish_health(self, fixes: Sequence[ShipFix], utc_ns: int) -> None:
+        """Only the Modbus image, with the health as it is now (no pair came: nothing new to send on
+        NMEA or to the CSV, but the PLC must see a camera gone as soon as the health does)."""
+        mine = [out for out in self.outputs if isinstance(out, ModbusOutput)]
+        for out in mine:  # counted apart: `sent` stays one image per processed pair
+            self.health_images += len(out.publish(fixes, utc_ns))
+        if mine:
+            fault, counters = mine[0].health()
+            counters = {**counters, mine[0].unit: self.sent[mine[0].unit],
+                        "health_images": self.health_images}
+            self.health.beat("modbus", fault=fault, counters=counters)
 
     def _beat(self, stage: str | None, faults: list[str], counters: Counter[str]) -> None:
         if stage is not None:
