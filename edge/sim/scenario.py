@@ -23,7 +23,8 @@ from edge.core.site import Site
 from edge.errors import ConfigError
 from edge.sim.imaging import ImagingSpec
 from edge.sim.scene import Atmosphere, Sea, Sky, Sun
-from edge.sim.ships import KINDS, ShipModel, periodic_detail
+from edge.sim.shipdetail import periodic_detail
+from edge.sim.ships import KINDS, ShipModel
 from edge.sim.tracks import KNOT_MPS, Track
 
 SCENARIO_DIR = Path(__file__).resolve().parents[2] / "config" / "scenarios"

@@ -19,17 +19,11 @@ a 200 m container ship; dimensions scale with length. Each has a tracked point
 ground truth. Ship motion in a seaway (roll, pitch, heave) is a sum of slow
 sinusoids scaled by `motion`.
 
-`periodic_detail(model, pitch_m)` (opt-in, a scenario's `detail: periodic`) repaints the
-superstructure as real ships are built: windows on one regular pitch, the same paint in every
-cell, dark glass against white, and a railing (stanchions on the same pitch) along the top of the
-hull. At kilometres that pitch is 1-2 px at 2048 px: finer than two pixels it aliases on optics
-without blur (`imaging.psf_sigma_px: 0`), the case of issue 16 that the matcher's window
-cross-check (edge.measure.aliascheck) is there for.
+Regular superstructure detail (a scenario's `detail: periodic`) is `edge.sim.shipdetail`.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
@@ -262,32 +256,6 @@ def _boat(length: float, seed: int) -> ShipModel:
         ),
     )
     return ShipModel("boat", length, beam, parts, np.array([0.12 * length, 0.0, top - 0.3]), 4.0, seed)
-
-
-def periodic_detail(model: ShipModel, pitch_m: float = 2.0) -> ShipModel:
-    """The model with regular superstructure detail (module doc): every windowed part gets windows
-    on `pitch_m` along the ship with no per-cell variation, and a railing band (stanchions on
-    the same pitch, 2 m high) stands on the deck edge. Geometry and tracked point are unchanged."""
-    parts = []
-    for part in model.parts:
-        st = part.style
-        if st.window[0] > 0.0:
-            st = dataclasses.replace(st, cell_m=(pitch_m, st.cell_m[1], pitch_m), cell_variation=0.0,
-                                     window=(0.5, max(st.window[1], 0.45)), window_albedo=0.05,
-                                     albedo=max(st.albedo, 0.8), noise=0.02)
-        parts.append(dataclasses.replace(part, style=st))
-    hull_part = parts[0]
-    top = float(hull_part.planes[hull_part.planes[:, 2] > 0.5, 3].min())  # the freeboard
-    rail = Part("railing", _railing_planes(model, top), Style(
-        0.85, (pitch_m, 2.0, pitch_m), 0.0, window=(0.75, 0.8), window_albedo=0.12, noise=0.02))
-    return dataclasses.replace(model, parts=(*parts, rail))
-
-
-def _railing_planes(model: ShipModel, freeboard_m: float) -> np.ndarray:
-    """A thin box along the ship's side above the deck edge: the railing (its open spaces are
-    painted dark, so the sea behind need not be cast)."""
-    half_l, half_b = 0.30 * model.length_m, model.beam_m / 2.0
-    return box(-half_l, half_l, -half_b, half_b, freeboard_m, freeboard_m + 2.0)
 
 
 _PRESETS = {"freighter": _freighter, "ferry": _ferry, "coaster": _coaster, "tug": _tug, "boat": _boat}

@@ -122,7 +122,8 @@ def test_sharp_optics_keep_a_one_pixel_feature_one_pixel() -> None:
 
 
 def test_periodic_detail_repaints_on_one_pitch_and_keeps_the_geometry() -> None:
-    from edge.sim.ships import ShipModel, paint, periodic_detail
+    from edge.sim.shipdetail import periodic_detail
+    from edge.sim.ships import ShipModel, paint
 
     model = ShipModel.build("ferry", 120.0)
     sharp = periodic_detail(model, 2.0)
