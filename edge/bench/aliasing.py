@@ -18,7 +18,7 @@ A window counts as biased when |error| > 0.1 px. The detector table gives, per f
 on all clean windows, the threshold and the share of biased windows flagged. The accuracy table
 gives per set the RMS error, the biased share and the share beyond 3 sigma of the matcher's
 predicted sigma, alone and with the check's additive term (GAIN x |d15 - d9| above DEADZONE_PX,
-the single-pair form of AliasCheck.sigma_px).
+the single-pair form of AliasCheck.sigma_px's persistent disagreement).
 """
 
 from __future__ import annotations

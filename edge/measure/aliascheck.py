@@ -8,20 +8,23 @@ locks onto a disparity tenths of a pixel off, and every one of its passes agrees
 same samples), so the predicted sigma and the track's scatter stay small while the fix is
 hundreds of metres off. A single template cannot tell this apart: the alias folds detail near
 1 px into low image frequencies, so energy near Nyquist (second differences, a row FFT's high
-band) separates aliased from clean windows hardly better than chance (tools/bench-core,
+band) separates aliased from clean windows poorly (tools/bench-core,
 "aliasing" section). Two windows centred on the same point weight the aliased detail and the
 rest of the ship differently, so their disparities disagree where aliasing biases them and agree
 (to the noise) where it does not: 55 % of the biased windows flagged at 5 % false alarms on
 clean texture, 40 % at 1 %, against 32-39 % for the Nyquist-energy statistics.
 
-What it adds: `AliasCheck.sigma_px()` = GAIN x the RMS of the recent disagreements d(window) -
-d(CHECK window) once that RMS exceeds DEADZONE_PX (what clean texture shows), else 0. It is a
-separate, additive disparity-variance term: the fix's disparity sigma is
-hypot(filter sigma, this) (edge.pipeline `_fixes`), so other sigma terms compose with it.
-A single pair's disagreement misses about a third of the biased windows (both windows biased
-alike), so the term is the RMS over the track's recent pairs: a ship moving along its course
-changes the pattern's phase from pair to pair, and the RMS sees the bias the windows show now
-and then. Opt-in (`pipeline.alias_check`): one more match per track and pair.
+What it adds: `AliasCheck.sigma_px()` = GAIN x the *persistent* disagreement, |mean of the recent
+d(window) - d(check window)| less two of its standard errors, once that exceeds DEADZONE_PX, else
+0. Persistent because aliasing bias at a ship's slowly changing disparity persists from pair to
+pair, while the small window's own noise and phase-dependent errors average out (its RMS, tried
+first, widened sigma 14x on tools/evaluate sharp-periodic, where the 15-px window was barely
+biased). GAIN 1: the median of |error(15)| / |d15 - d9| on the bench's biased windows is 1.0-1.2.
+It is a separate, additive disparity-variance term: the fix's disparity sigma is
+hypot(filter sigma, this) (edge.pipeline `Pipeline._fixes`), so other sigma terms (calibration,
+row sigma) compose with it. What it does not do: the disagreement detects aliasing better than it
+sizes the 15-px window's bias (README, "Sharp optics"), so it is opt-in (`pipeline.alias_check`,
+one more match per track and pair) and off by default.
 """
 
 from __future__ import annotations
@@ -33,8 +36,8 @@ from edge.core.match import Match
 
 CHECK_WINDOW_DELTA = 6  # the check window is this much smaller (15 -> 9)
 MIN_CHECK_WINDOW = 7
-DEADZONE_PX = 0.03  # RMS disagreement over a track's recent pairs that clean texture stays below
-GAIN = 3.0  # alias sigma = GAIN x RMS disagreement (bench-core "aliasing": the checked column)
+DEADZONE_PX = 0.03  # persistent disagreement that clean texture stays below (bench-core "aliasing")
+GAIN = 1.0  # alias sigma = GAIN x persistent disagreement
 HISTORY = 20  # recent disagreements kept
 MIN_SAMPLES = 3  # before the term counts
 
@@ -63,7 +66,16 @@ class AliasCheck:
             return None
         return math.sqrt(sum(d * d for d in self.deltas) / len(self.deltas))
 
+    def persistent_px(self) -> float | None:
+        """|mean disagreement| less two of its standard errors (the part that does not average out)."""
+        n = len(self.deltas)
+        if n < MIN_SAMPLES:
+            return None
+        mean = sum(self.deltas) / n
+        var = sum((d - mean) ** 2 for d in self.deltas) / (n - 1)
+        return max(0.0, abs(mean) - 2.0 * math.sqrt(var / n))
+
     def sigma_px(self) -> float:
         """The additive disparity sigma (px) for aliasing bias: 0 while the windows agree."""
-        rms = self.rms_px()
-        return GAIN * rms if rms is not None and rms > DEADZONE_PX else 0.0
+        persistent = self.persistent_px()
+        return GAIN * persistent if persistent is not None and persistent > DEADZONE_PX else 0.0
