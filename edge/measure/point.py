@@ -137,6 +137,7 @@ class TrackPoint(PointFilter):
         self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)
         self.match_settings = match_settings(self.s)
         self.match_costs.clear()  # costs scale with the window's area
+        self.alias.clear()  # and the check's window changes with it
         if self.last_left is not None:
             self._take_template(self.last_left, rect)
         else:
