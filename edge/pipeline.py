@@ -88,7 +88,7 @@ class Pipeline:
             prefilter=cfg.prefilter, subpixel=subpixel,
             filter=filter or cfg.filter, butterworth_cutoff_hz=cfg.butterworth_cutoff_hz,
             gate_sigma=cfg.gate_sigma, reacquire_s=cfg.coast_s, baseline_m=self.rig.baseline_m,
-            focal_px=self.rect.f_px)
+            focal_px=self.rect.f_px, alias_check=cfg.alias_check)
         self.table = TrackTable(self.rect, site.height_m, self.point_settings,
                                 TableSettings(coast_s=cfg.coast_s, max_tracks=cfg.max_tracks,
                                               waterline_tol_px=2.0 + 2.0 * cfg.detect_decimation))
@@ -178,7 +178,8 @@ class Pipeline:
         xy_l = self.rect.rect_to_normalised(np.stack([u, v], -1))
         xy_r = xy_l - np.stack([d / f, np.zeros_like(d)], -1)
         world = triangulate_normalised(xy_l, xy_r, b)  # eq. 4.1
-        sigma_d = np.array([t.point.sigma_px for t in live])
+        # the filter's sigma and, composed in quadrature, the aliasing check's term (0 unless on)
+        sigma_d = np.array([math.hypot(t.point.sigma_px, t.point.alias_sigma_px) for t in live])
         err = position_error(world, sigma_d / f, b)  # eq. 4.5, the far side (the larger one)
         sigma_m = np.where(np.isfinite(err).all(axis=-1), np.hypot(err[..., 0], err[..., 2]), math.inf)
         range_m, bearing = range_bearing(world, self.site.heading_deg)

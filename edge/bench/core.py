@@ -18,6 +18,9 @@ Sections
             ratio to the plain-numpy integer and float64 paths measured in the same run
   study     (opt-in) float sketches of other sub-pixel estimators (Gauss-Newton with interpolation,
             cosine / Gaussian curve models) on the tuning seeds; see edge/bench/subpix_study.py
+  aliasing  sharp optics on periodic detail (issue 16): bias and 3-sigma share per set, and how the
+            candidate detectors (Nyquist energy, window disagreement) separate aliased from clean
+            windows; edge/bench/aliasing.py
   real      Middlebury 2014 motorcycle pair with ground truth (bundled with scikit-image, a
             bench/test-only dependency) against OpenCV StereoBM at the same textured points
 Seeds: evaluation 1000+, tuning 5000+ (never mixed). Default run: a few minutes; --quick < 1 min.
@@ -226,7 +229,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="fewer seeds and fractions (< 1 min)")
     parser.add_argument("--out", type=Path, default=Path("out/bench-core"), help="directory for PNG + tables")
-    parser.add_argument("--sections", default="subpixel,fixed,tracks,speed,real")
+    parser.add_argument("--sections", default="subpixel,fixed,tracks,speed,aliasing,real")
     parser.add_argument("--study-seeds", choices=("tuning", "evaluation"), default="tuning",
                         help="seed set of the opt-in study section (choose methods on tuning seeds only)")
     args = parser.parse_args()
@@ -252,6 +255,11 @@ def main() -> int:
         from edge.bench.subpix_study import section_study
         n = len(out)
         section_study(args, out)
+        print("\n".join(out[n:]), flush=True)
+    if "aliasing" in sections:
+        from edge.bench.aliasing import section_aliasing
+        n = len(out)
+        section_aliasing(args, out)
         print("\n".join(out[n:]), flush=True)
     if "real" in sections:
         from edge.bench.real import section_real

@@ -133,6 +133,10 @@ class PipelineConfig:
     butterworth_cutoff_hz: float = setting(0.5, positive=True, doc="cut-off of the Butterworth filter")
     gate_sigma: float = setting(3.0, positive=True, doc="innovation gate of the Kalman filter, sigmas")
     coast_s: float = setting(3.0, min=0.0, max=600.0, doc="a track unseen this long turns lost (L)")
+    alias_check: bool = setting(
+        False, doc="for cameras without an anti-aliasing filter (sharp optics): cross-check every match "
+        "with a smaller window and widen the fix's sigma by their disagreement (one more match per track)"
+    )
 
 
 # ---------------------------------------------------------------- outputs

@@ -64,18 +64,20 @@ def load_ships(root: Path, meta: dict) -> list[em.Ship]:
     return ships
 
 
-def run(root: Path, stages: bool,
-        subpixel: str | None = None) -> tuple[dict[str, dict[int, list]], Pipeline, dict]:
+def run(root: Path, stages: bool, subpixel: str | None = None,
+        alias_check: bool = False) -> tuple[dict[str, dict[int, list]], Pipeline, dict]:
     """Fixes by stage name and pair time; the product pipeline (for its counters and geometry),
-    with another sub-pixel method than its default if `subpixel` is given."""
+    with another sub-pixel method than its default if `subpixel` is given, and with
+    pipeline.alias_check on if `alias_check` (the other stages stay the thesis's)."""
     source = open_recording(root)
     meta = source.meta
     cal = recording_calibration(root, meta)
     fps = float(meta["fps"])
     pipes = stage_pipelines(cal, PipelineConfig(), fps=fps) if stages else \
         {"product": Pipeline(cal, PipelineConfig(), fps=fps)}
-    if subpixel is not None:
-        pipes["product"] = Pipeline(cal, PipelineConfig(), fps=fps, subpixel=subpixel)
+    if subpixel is not None or alias_check:
+        pipes["product"] = Pipeline(cal, PipelineConfig(alias_check=alias_check), fps=fps,
+                                    subpixel=subpixel or PointSettings.subpixel)
     fixes: dict[str, dict[int, list]] = {name: defaultdict(list) for name in pipes}
     with source:
         for pair in source:
@@ -167,11 +169,11 @@ def plots(out: Path, name: str, results: dict[str, em.Evaluation], ships: list[e
 
 
 def evaluate_recording(root: Path, stages: bool | None, plot_dir: Path | None,
-                       subpixel: str | None = None) -> dict:
+                       subpixel: str | None = None, alias_check: bool = False) -> dict:
     source_meta = open_recording(root).meta
     name = str(source_meta.get("scenario") or root.name)
     stages = name == "akashi-crossing" if stages is None else stages
-    fixes, product, meta = run(root, stages, subpixel)
+    fixes, product, meta = run(root, stages, subpixel, alias_check)
     ships = load_ships(root, meta)
     f, width = product.rect.f_px, product.rig.width
     results = {stage: em.evaluate(fx, ships, f, width) for stage, fx in fixes.items()}
@@ -252,8 +254,11 @@ def main(argv: list[str] | None = None) -> int:
     group.add_argument("--no-stages", dest="stages", action="store_false")
     parser.add_argument("--subpixel", choices=SUBPIXELS, help="the product pipeline's sub-pixel method "
                         f"(default {PointSettings.subpixel})")
+    parser.add_argument("--alias-check", action="store_true",
+                        help="the product pipeline with pipeline.alias_check on (sharp optics)")
     args = parser.parse_args(argv)
-    summaries = [evaluate_recording(r, args.stages, args.plots, args.subpixel) for r in args.recordings]
+    summaries = [evaluate_recording(r, args.stages, args.plots, args.subpixel, args.alias_check)
+                 for r in args.recordings]
     if args.diagnose:
         for r in args.recordings:
             diagnose_recording(r, args.subpixel)

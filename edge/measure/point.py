@@ -41,10 +41,12 @@ from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
 from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2, MAX_SHIP_SPEED_MPS
+from edge.measure.aliascheck import AliasCheck, check_window
 from edge.measure.batch import (
     Follow,
     Request,
     Steps,
+    StereoMatch,
     follow_settings,
     match_settings,
     run_one,
@@ -109,6 +111,13 @@ class TrackPoint(PointFilter):
         self.follow_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # SSD per pixel of good follows
         self.match_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # matcher costs of clean matches
         self.columns: deque[tuple[int, float]] = deque(maxlen=max(3, int(round(COLUMN_FIT_S * settings.fps))))
+        self._last_request: StereoMatch | None = None
+        self.alias = AliasCheck()  # small-window cross-check of the right match (settings.alias_check)
+
+    @property
+    def alias_sigma_px(self) -> float:
+        """The additive disparity sigma for aliasing bias (edge.measure.aliascheck); 0 when off."""
+        return self.alias.sigma_px()
 
     def reanchor(self, u: float, v: float) -> None:
         """Start over at a new point on the same ship: new template, the filters restart."""
@@ -118,6 +127,7 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
         self.match_costs.clear()
         self.columns.clear()
+        self.alias.clear()
         self._reset_filters()
 
     def set_window(self, window: int, rect: Rectifier) -> None:
@@ -127,6 +137,7 @@ class TrackPoint(PointFilter):
         self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)
         self.match_settings = match_settings(self.s)
         self.match_costs.clear()  # costs scale with the window's area
+        self.alias.clear()  # and the check's window changes with it
         if self.last_left is not None:
             self._take_template(self.last_left, rect)
         else:
@@ -323,10 +334,15 @@ class TrackPoint(PointFilter):
         worse = len(costs) >= 2 and costs[-1] > 2.0 * min(costs)
         if self.template is None or self.template_age >= TEMPLATE_REFRESH_S * self.s.fps or worse:
             self._take_template(left, rect)
-        m = yield stereo_request(self.s, left, right, rect, self.u, self.v, self.predicted_disparity(),
-                                 self.match_settings)
+        self._last_request = stereo_request(self.s, left, right, rect, self.u, self.v,
+                                            self.predicted_disparity(), self.match_settings)
+        m = yield self._last_request
         assert isinstance(m, Match)  # the answer to a StereoMatch
         self.match = m
+        if self.s.alias_check and m.valid:
+            check = yield self._check_request(m)
+            assert isinstance(check, Match)  # the answer to a StereoMatch
+            self.alias.add(m, check)
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)
         if not self.accepted and self.kalman is not None and self.kalman.running:
@@ -341,6 +357,17 @@ class TrackPoint(PointFilter):
                 self.match_costs.append(m.cost)
         if self.followed or self.template_age == 0:
             self._fit_column()  # only positions the tracker measured enter the motion fit
+
+    def _check_request(self, m: Match) -> StereoMatch:
+        """The aliasing cross-check: the same point in the main request's patches, a smaller window,
+        searched around the main match (edge.measure.aliascheck)."""
+        assert isinstance(self._last_request, StereoMatch)
+        r, w = self._last_request, check_window(self.s.window)
+        trim = (self.s.window - w) // 2
+        settings = replace(self.match_settings, window=w, search_radius=2)
+        rows = slice(trim, r.left.shape[0] - trim)
+        return StereoMatch(r.left[rows], r.right[rows], r.x, r.y - trim, r.max_disparity, m.disparity_px,
+                           settings)
 
     def _mixed(self, cost: float) -> bool:
         """A match much worse than this track's typical one: the window holds two objects at

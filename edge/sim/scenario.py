@@ -23,6 +23,7 @@ from edge.core.site import Site
 from edge.errors import ConfigError
 from edge.sim.imaging import ImagingSpec
 from edge.sim.scene import Atmosphere, Sea, Sky, Sun
+from edge.sim.shipdetail import periodic_detail
 from edge.sim.ships import KINDS, ShipModel
 from edge.sim.tracks import KNOT_MPS, Track
 
@@ -60,6 +61,10 @@ class ShipSpec:
     track: TrackSpec = setting(doc="scripted track")
     paint_seed: int = setting(0, min=0, doc="varies the paint between ships of one kind")
     motion: float = setting(1.0, min=0.0, max=5.0, doc="roll/pitch/heave scale (0: flat calm)")
+    detail: Literal["preset", "periodic"] = setting(
+        "preset", doc="superstructure paint: the preset's, or periodic (regular windows, railing)"
+    )
+    detail_pitch_m: float = setting(2.0, min=0.5, max=10.0, doc="window/railing pitch of detail: periodic")
 
 
 @dataclass(frozen=True)
@@ -162,6 +167,8 @@ def build_ships(spec: ScenarioSpec, file: Any) -> list:
     for i, s in enumerate(spec.ships):
         key = f"ships[{i}]"
         model = ShipModel.build(s.kind, s.length_m, seed=s.paint_seed * 1000 + s.id)
+        if s.detail == "periodic":
+            model = periodic_detail(model, s.detail_pitch_m)
         t = s.track
         radius = t.turn_radius_m if t.turn_radius_m > 0.0 else 2.0 * s.length_m
         try:

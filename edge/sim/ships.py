@@ -18,6 +18,8 @@ a 200 m container ship; dimensions scale with length. Each has a tracked point
 (the bridge, on the centreline at window height) whose world position is the
 ground truth. Ship motion in a seaway (roll, pitch, heave) is a sum of slow
 sinusoids scaled by `motion`.
+
+Regular superstructure detail (a scenario's `detail: periodic`) is `edge.sim.shipdetail`.
 """
 
 from __future__ import annotations

@@ -48,8 +48,12 @@ class Scene:
 
 def make_scene(rng: np.random.Generator, height_px: int, width_px: int, kind: str = "hull") -> Scene:
     """Random scene: `hull` (band-limited noise, correlation 0.25-0.6 px, plus +-45 DN
-    rectangles), `sharp` (correlation 0.15-0.25 px: aliases after sampling) or `sea`
-    (low-contrast noise with horizontal wave streaks)."""
+    rectangles), `sharp` (correlation 0.15-0.25 px: aliases after sampling), `periodic` (a
+    faint hull carrying 1-3 rows of dark windows on one pitch of 1.05-2.5 px: issue 16's bridge
+    windows and railings, `periodic_scene`) or `sea` (low-contrast noise with horizontal wave
+    streaks)."""
+    if kind == "periodic":
+        return periodic_scene(rng, height_px, width_px)
     rows, cells = height_px * ROWS_PER_PX, width_px * ROWS_PER_PX
     if kind == "hull":
         corr_px = rng.uniform(0.25, 0.6)
@@ -76,6 +80,23 @@ def make_scene(rng: np.random.Generator, height_px: int, width_px: int, kind: st
             c0 = int(rng.integers(0, max(1, fine.shape[1] - w)))
             fine[r0:r0 + h, c0:c0 + w] += rng.choice([-45.0, 45.0])
     return Scene(fine=fine, kind=kind)
+
+
+def periodic_scene(rng: np.random.Generator, height_px: int, width_px: int) -> Scene:
+    """`make_scene(kind="periodic")`: a `hull` scene at 10-60 % of its contrast (white paint) with
+    1-3 horizontal rows, 3-9 px high, of dark windows 30-60 DN deep on one pitch of 1.05-2.5 px
+    (duty 35-65 %, random phase) across the whole width: regular detail near and under two pixels."""
+    hull = make_scene(rng, height_px, width_px, "hull")
+    fine = 110.0 + rng.uniform(0.1, 0.6) * (hull.fine - 110.0)
+    pitch_px, duty = rng.uniform(1.05, 2.5), rng.uniform(0.35, 0.65)
+    phase_px, depth_dn = rng.uniform(0.0, pitch_px), rng.uniform(30.0, 60.0)
+    x = (np.arange(fine.shape[1]) + 0.5) / SAMPLES_PER_PX
+    dark = ((x - phase_px) / pitch_px) % 1.0 < duty
+    for _ in range(int(rng.integers(1, 4))):
+        h = int(rng.integers(3 * ROWS_PER_PX, 9 * ROWS_PER_PX))
+        r0 = int(rng.integers(0, fine.shape[0] - h))
+        fine[r0:r0 + h, dark] -= depth_dn
+    return Scene(fine=fine, kind="periodic")
 
 
 def render_view(scene: Scene, x0_samples: int, y0_rows: int, height_px: int, width_px: int,

@@ -105,3 +105,35 @@ def test_gain_offset_psf_and_clipping() -> None:
     # the blurred step: pixel 20 lies 0.5 px inside the edge at 19.5, Phi(0.5) = 0.69 of the way up
     assert left[32, 20] == pytest.approx(69.1, abs=1.0) and left[32, 19] == pytest.approx(30.9, abs=1.0)
     assert left[10:54, 10:54].astype(float).sum() == pytest.approx(57600.0, rel=0.002)  # the PSF keeps energy
+
+
+def test_sharp_optics_keep_a_one_pixel_feature_one_pixel() -> None:
+    """psf_sigma_px 0 (issue 16's sharp optics, no anti-aliasing filter): no blur at all, so a
+    one-pixel feature stays one pixel and its value is exposed exactly."""
+    from edge.sim.imaging import ImagingSpec, expose
+
+    radiance = np.full((9, 9), 40.0, np.float32)
+    radiance[4, 4] = 200.0
+    spec = ImagingSpec(psf_sigma_px=0.0, read_noise_dn=0.0, shot_noise=False)
+    image = expose(radiance, spec, right=False, rng=np.random.default_rng(0))
+    assert image[4, 4] == 200 and np.count_nonzero(image != 40) == 1
+    blurred = expose(radiance, ImagingSpec(read_noise_dn=0.0, shot_noise=False), right=False, rng=None)
+    assert np.count_nonzero(blurred != 40) > 1  # the default PSF spreads it
+
+
+def test_periodic_detail_repaints_on_one_pitch_and_keeps_the_geometry() -> None:
+    from edge.sim.shipdetail import periodic_detail
+    from edge.sim.ships import ShipModel, paint
+
+    model = ShipModel.build("ferry", 120.0)
+    sharp = periodic_detail(model, 2.0)
+    assert np.array_equal(sharp.tracked_local, model.tracked_local)
+    assert [p.name for p in sharp.parts] == [p.name for p in model.parts] + ["railing"]
+    decks = [p.name for p in sharp.parts].index("decks")
+    h = 1.4 + 2.8 * 4  # the middle of a row of windows (cells 2.8 m high)
+    a = np.linspace(-20.0, 0.0, 4001)
+    pts = np.stack([a, np.zeros_like(a), np.full_like(a, h)], -1)
+    albedo, _ = paint(sharp, decks, pts, footprint_m=0.01)
+    shifted, _ = paint(sharp, decks, pts + [2.0, 0.0, 0.0], footprint_m=0.01)
+    assert albedo.max() - albedo.min() > 0.5  # dark glass against white
+    assert np.mean(np.abs(albedo - shifted)) < 0.02  # the same every 2 m (only the faint noise differs)
