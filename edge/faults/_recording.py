@@ -1,0 +1,1 @@
+def recording_damage(w): return []
