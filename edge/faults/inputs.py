@@ -141,8 +141,8 @@ def _subprocess_rows(workdir: Path) -> list[Row]:
     return rows
 
 
-def config_fuzz(workdir: Path) -> list[Row]:
-    return _in_process(workdir, mutations=150, blobs=40, seed=15) + _subprocess_rows(workdir)
+def config_fuzz(workdir: Path, mutations: int = 300, blobs: int = 60) -> list[Row]:
+    return _in_process(workdir, mutations, blobs, seed=15) + _subprocess_rows(workdir)
 
 
 CASES = [
