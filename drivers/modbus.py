@@ -126,7 +126,8 @@ class ModbusServer(ABC):
     def _serve(self, function_code: int, address: int, count: int,
                write: bool) -> list[int] | ExceptionCode:
         self._counters.requests += 1
-        self._counters.writes += write
+        if write:
+            self._counters.count("writes", f"write refused (function {function_code}): read-only server")
         result = self._image.request(function_code, address, count, write)
         if isinstance(result, ExceptionCode):
             self._counters.exceptions += 1
