@@ -62,7 +62,7 @@ class TcpLimits:
     """What one TCP server allows its clients (a PLC or SCADA poller needs one or two)."""
 
     max_clients: int = 64
-    idle_timeout_s: float = 60.0
+    idle_timeout_s: float = 120.0  # a poller that keeps its connection polls far more often
     max_unread_bytes: int = 65536  # answers waiting for a client, in our buffer (and its socket's)
 
 

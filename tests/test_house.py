@@ -193,7 +193,7 @@ def _shell_uses(source: str) -> list[str]:
         if not isinstance(node, ast.Call):
             continue
         name = ast.unparse(node.func)
-        if name in SHELL_CALLS or name.split(".")[-1] in {"system", "popen", "create_subprocess_shell"}:
+        if name in SHELL_CALLS or name in {"system", "popen"} or name.endswith("create_subprocess_shell"):
             found.append(f"line {node.lineno}: {name}()")
         for kw in node.keywords:
             if kw.arg == "shell" and not (isinstance(kw.value, ast.Constant) and kw.value.value is False):
@@ -203,7 +203,7 @@ def _shell_uses(source: str) -> list[str]:
 
 def test_shell_finder_finds_what_it_must() -> None:
     assert _shell_uses("import os, subprocess\nos.system('ls')\nsubprocess.run(x, shell=True)\n"
-                       "subprocess.run(['ls'], shell=False)\nos.popen('x')\n") == \
+                       "subprocess.run(['ls'], shell=False)\nos.popen('x')\nplatform.system()\n") == \
         ["line 2: os.system()", "line 3: subprocess.run(shell=True)", "line 5: os.popen()"]
 
 

@@ -7,8 +7,9 @@ client side, so the server is checked by something that does not share its bugs)
   PLC would, recording each answer's latency and any wrong value, timeout or error;
 - `malformed_frames(n, rng)`: n frames mixing random bytes, wrong MBAP lengths and protocol ids,
   odd unit ids, illegal and diagnostic functions, writes, bad counts, and frames cut short;
-- `blast`, `crowd`, `non_readers`, `silent`, `flood_connections`: the attacks, bounded in count
-  and time, on 127.0.0.1 only;
+- `blast`, `crowd`, `non_readers`, `silent`: the attacks, bounded in count and time, on
+  127.0.0.1 only. They run in the probe's and the server's process, so the probe's latency
+  includes the attackers' share of the GIL (as the daemon's processing thread would take it);
 - `open_fds` / `thread_names`: what a leak would show.
 """
 
@@ -264,9 +265,13 @@ def non_readers(port: int, clients: int, seconds: float) -> int:
     return len(closed)
 
 
-def silent(port: int, clients: int) -> list[socket.socket]:
-    """Clients that connect and send nothing (the caller closes them)."""
-    return [socket.create_connection((HOST, port)) for _ in range(clients)]
+def silent(port: int, clients: int, gap_s: float = 0.001) -> list[socket.socket]:
+    """Clients that connect and send nothing, `gap_s` apart (the caller closes them)."""
+    socks = []
+    for _ in range(clients):
+        socks.append(socket.create_connection((HOST, port)))
+        time.sleep(gap_s)  # a burst, not one GIL-holding loop: the probe shares this process
+    return socks
 
 
 def wait_closed(socks: list[socket.socket], seconds: float) -> int:
