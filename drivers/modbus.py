@@ -6,76 +6,64 @@ previous one in a single reference swap. Every read is served from the one
 image that was current when the request arrived, so a client never sees half
 an update. The image is served as input registers (FC4) and mirrored
 read-only as holding registers (FC3). Writes of any kind and reads outside
-the image get exception 02 (illegal data address); coil and discrete-input
-reads get 01 (illegal function); a read before the first update gets 06
-(busy). TCP answers any unit id; RTU answers only its own unit id and stays
-silent for others and for broadcasts, as a bus member must.
+the image get exception 02 (illegal data address) and are counted
+(`stats.writes`); coil and discrete-input reads, and every other function
+(diagnostics, device identification, FIFO, file records: pymodbus would
+answer some of them or change its own state) get 01 (illegal function); a
+read before the first update gets 06 (busy). TCP answers any unit id; RTU
+answers only its own unit id and stays silent for others and for broadcasts, as a bus member must.
 
 Kinds (house rule): `ModbusServer` is the base; `ModbusTcpServer` and
 `ModbusRtuServer` run pymodbus (pinned 3.16.1, whose server API moves between
-minor versions: every pymodbus name is confined to this module) on an asyncio
+minor versions: every pymodbus name is confined to this module and
+drivers/modbus_guard.py) on an asyncio
 loop in their own thread; `VirtualModbusServer` answers in memory with the
 same rules. Malformed traffic never stops a server: it is counted
-(`stats.garbage`), logged once, and the server keeps serving.
+(`stats.garbage`), logged once, and the server keeps serving. TCP guards
+against hostile or broken clients (`TcpLimits`): at most `max_clients`
+connections (more are closed at once, `stats.refused_clients`), a connection
+silent for `idle_timeout_s` is closed (`stats.idle_closed`), and one that
+sends requests but does not read the answers is closed once
+`max_unread_bytes` wait for it (`stats.unread_closed`), so no client can
+hold memory, descriptors or the loop. Listening on a non-loopback address is
+logged as a warning naming it.
 """
 
 from __future__ import annotations
 
 import asyncio
-import enum
+import ipaddress
 import logging
 import threading
 from abc import ABC, abstractmethod
 from array import array
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from functools import partial
 
-from pymodbus.constants import ExcCodes
 from pymodbus.datastore import ModbusServerContext
-from pymodbus.exceptions import ModbusIOException, NoSuchIdException
-from pymodbus.framer import FramerRTU, FramerSocket
-from pymodbus.pdu import DecodePDU
 from pymodbus.server import ModbusBaseServer, ModbusSerialServer
-from pymodbus.server import ModbusTcpServer as _PymodbusTcpServer
 
+from drivers.modbus_guard import (
+    BIT_READ_FUNCTIONS,
+    MAX_READ_COUNT,
+    READ_FUNCTIONS,
+    Counters,
+    ExceptionCode,
+    GuardedFramer,
+    GuardedRtuFramer,
+    GuardedSocketFramer,
+    GuardedTcpServer,
+    ImageContext,
+    ModbusStats,
+    ReadOnlyDecoder,
+    TcpLimits,
+)
+
+__all__ = ["ExceptionCode", "ModbusRtuServer", "ModbusServer", "ModbusStats", "ModbusTcpServer",
+           "RegisterImage", "TcpLimits", "VirtualModbusServer"]
+_ImageContext = ImageContext  # the name the tests use
 log = logging.getLogger(__name__)
-READ_FUNCTIONS = {3, 4}  # holding (mirror), input
-BIT_READ_FUNCTIONS = {1, 2}  # coils, discrete inputs: not offered
-MAX_READ_COUNT = 125
-
-
-class ExceptionCode(enum.IntEnum):
-    ILLEGAL_FUNCTION = 0x01
-    ILLEGAL_ADDRESS = 0x02
-    ILLEGAL_VALUE = 0x03
-    DEVICE_BUSY = 0x06
-
-
-@dataclass(frozen=True, slots=True)
-class ModbusStats:
-    requests: int  # requests that reached the register image
-    exceptions: int  # of those, answered with an exception
-    garbage: int  # malformed frames or bytes dropped
-    clients: int  # connections open now (TCP); 1 while the port is open (RTU)
-    port_losses: int  # RTU: times the port went away (each followed by reopen attempts)
-
-
-class _Counters:
-    """Mutated only on the server's loop thread (or the caller's, for the virtual one)."""
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-        self.requests = self.exceptions = self.garbage = self.clients = self.port_losses = 0
-
-    def count_garbage(self) -> None:
-        if self.garbage == 0:
-            log.warning("%s: malformed Modbus traffic dropped (counted in stats.garbage from now on)",
-                        self.name)
-        self.garbage += 1
-
-    def stats(self) -> ModbusStats:
-        return ModbusStats(self.requests, self.exceptions, self.garbage, self.clients, self.port_losses)
+DEFAULT_LIMITS = TcpLimits()
 
 
 class RegisterImage:
@@ -112,7 +100,7 @@ class ModbusServer(ABC):
 
     def __init__(self, name: str) -> None:
         self._image = RegisterImage()
-        self._counters = _Counters(name)
+        self._counters = Counters(name)
 
     def update(self, registers: Sequence[int]) -> None:
         """Publish a complete new image (u16 values from address 0); atomic, thread-safe."""
@@ -138,6 +126,8 @@ class ModbusServer(ABC):
     def _serve(self, function_code: int, address: int, count: int,
                write: bool) -> list[int] | ExceptionCode:
         self._counters.requests += 1
+        if write:
+            self._counters.count("writes", f"write refused (function {function_code}): read-only server")
         result = self._image.request(function_code, address, count, write)
         if isinstance(result, ExceptionCode):
             self._counters.exceptions += 1
@@ -167,85 +157,6 @@ class VirtualModbusServer(ModbusServer):
         return self._serve(function_code, address, n, values is not None)
 
 
-class _ImageContext(ModbusServerContext):
-    """pymodbus 3.16 datastore hook serving the image.
-
-    The 3.16 server calls `async_getValues` / `async_setValues` on a
-    `ModbusServerContext` whose `old_simulator` flag is set, passing the unit id.
-    The parent constructor is skipped on purpose: it only wraps SimDevices and
-    logs a deprecation warning, and nothing of it is used here.
-    """
-
-    def __init__(self, serve: Callable[[int, int, int, bool], list[int] | ExceptionCode],
-                 unit: int | None) -> None:
-        # pylint: disable=super-init-not-called
-        self.old_simulator = True
-        self.simdevices = []
-        self._serve = serve
-        self._unit = unit
-
-    def device_ids(self) -> list[int]:
-        return [self._unit or 0]
-
-    def _check_unit(self, device_id: int) -> None:
-        if self._unit is not None and device_id != self._unit:
-            raise NoSuchIdException(f"unit {device_id} is not ours")  # silent with ignore_missing_devices
-
-    async def async_getValues(self, device_id: int, func_code: int, address: int,
-                              count: int = 1) -> list[int] | ExcCodes:
-        self._check_unit(device_id)
-        result = self._serve(func_code, address, count, False)
-        return ExcCodes(result) if isinstance(result, ExceptionCode) else result
-
-    async def async_setValues(self, device_id: int, func_code: int, address: int,
-                              values: Sequence[int] | Sequence[bool]) -> ExcCodes | None:
-        self._check_unit(device_id)
-        result = self._serve(func_code, address, len(values), True)
-        assert isinstance(result, ExceptionCode)  # writes are always refused
-        return ExcCodes(result)
-
-
-class _GuardedFramer:
-    """Framer mixin: counts malformed input, resynchronises, keeps other RTU units silent."""
-
-    def __init__(self, decoder: DecodePDU, on_garbage: Callable[[], None], unit: int | None) -> None:
-        super().__init__(decoder)  # type: ignore[call-arg]
-        self._on_garbage = on_garbage
-        self._unit = unit
-        self._last_fc: int | None = None
-
-    def _remember(self, result: tuple[int, int, int, bytes]) -> tuple[int, int, int, bytes]:
-        used, _dev, _tid, frame = result
-        self._last_fc = frame[0] if frame else None
-        if used and not frame:  # bytes consumed without a frame: CRC error or out of step
-            self._on_garbage()
-        return result
-
-    def handleFrame(self, data: bytes, exp_devid: int, exp_tid: int):  # noqa: N802 (pymodbus name)
-        try:
-            return super().handleFrame(data, exp_devid, exp_tid)  # type: ignore[misc]
-        except ModbusIOException as exc:  # frame intact but not a request we can decode
-            self._on_garbage()
-            if self._unit is not None and exc.dev_id != self._unit:
-                return len(data), None  # someone else's frame on the bus: no reply
-            raise ModbusIOException("undecodable request", self._last_fc,
-                                    transaction_id=exc.transaction_id, dev_id=exc.dev_id) from exc
-
-
-class _GuardedSocketFramer(_GuardedFramer, FramerSocket):
-    def decode(self, data: bytes) -> tuple[int, int, int, bytes]:
-        # MBAP: protocol id 0 and a length of unit + function + at most 252 bytes, else the
-        # stream is out of step and cannot be resynchronised: drop what arrived so far.
-        if len(data) >= 6 and (data[2:4] != b"\0\0" or not 2 <= int.from_bytes(data[4:6]) <= 254):
-            return self._remember((len(data), 0, 0, self.EMPTY))
-        return self._remember(super().decode(data))
-
-
-class _GuardedRtuFramer(_GuardedFramer, FramerRTU):
-    def decode(self, data: bytes) -> tuple[int, int, int, bytes]:
-        return self._remember(super().decode(data))
-
-
 class _ThreadedServer(ModbusServer):
     """Runs a pymodbus server on an asyncio loop in a thread of its own.
 
@@ -254,7 +165,7 @@ class _ThreadedServer(ModbusServer):
     to 30 s) until the port is back or the server is stopped.
     """
 
-    _framer: type[_GuardedFramer]
+    _framer: type[GuardedFramer]
     _reopen_on_loss = False
 
     def __init__(self, name: str, unit: int | None) -> None:
@@ -314,9 +225,10 @@ class _ThreadedServer(ModbusServer):
             self._signal("lost")
 
     async def _open(self) -> ModbusBaseServer:
-        server = self._make_server(_ImageContext(self._serve, self._unit), self._trace_connect)
+        server = self._make_server(ImageContext(self._serve, self._unit), self._trace_connect)
         # pymodbus types framer as a class; it only calls it with the decoder, which the partial takes
         server.framer = partial(self._framer, on_garbage=self._counters.count_garbage, unit=self._unit)  # type: ignore[assignment]
+        server.decoder = ReadOnlyDecoder(True)
         await server.serve_forever(background=True)  # RuntimeError if it cannot listen/open
         return server
 
@@ -367,22 +279,36 @@ class _ThreadedServer(ModbusServer):
 class ModbusTcpServer(_ThreadedServer):
     """Modbus TCP on host:port; answers any unit id."""
 
-    _framer = _GuardedSocketFramer
+    _framer = GuardedSocketFramer
 
-    def __init__(self, host: str = "0.0.0.0", port: int = 502) -> None:
+    def __init__(self, host: str = "0.0.0.0", port: int = 502, limits: TcpLimits = DEFAULT_LIMITS) -> None:
         super().__init__(f"modbus tcp {host}:{port}", None)
-        self.host, self.port = host, port
+        self.host, self.port, self.limits = host, port, limits
+
+    def start(self, timeout_s: float = 5.0) -> None:
+        if not _is_loopback(self.host):
+            log.warning("%s: listening on %s, a non-loopback address: reachable from the network",
+                        self._counters.name, self.host)
+        super().start(timeout_s)
 
     def _make_server(self, context: ModbusServerContext,
                      trace_connect: Callable[[bool], None]) -> ModbusBaseServer:
-        return _PymodbusTcpServer(context, address=(self.host, self.port),
-                                  trace_connect=trace_connect)
+        server = GuardedTcpServer(context, address=(self.host, self.port), trace_connect=trace_connect)
+        server.limits, server.counters = self.limits, self._counters
+        return server
+
+
+def _is_loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host == "localhost"
 
 
 class ModbusRtuServer(_ThreadedServer):
     """Modbus RTU on a serial port; serial-line default 19200 8E1, parity always explicit."""
 
-    _framer = _GuardedRtuFramer
+    _framer = GuardedRtuFramer
     _reopen_on_loss = True
 
     def __init__(self, port: str, unit: int = 1, baudrate: int = 19200, parity: str = "E",

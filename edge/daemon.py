@@ -45,6 +45,7 @@ from drivers.leds.sysfs import SysfsLedPanel
 from drivers.leds.virtual import VirtualLedPanel
 from drivers.notify import Notifier
 from edge.config.app import AppConfig, LedsConfig, load_config
+from edge.config.trust import check_config_files
 from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthMonitor, HealthSnapshot, HealthState, Status, standard_stages
@@ -366,6 +367,7 @@ class Appliance:
         if self.config_file is None:
             return False
         try:
+            check_config_files(self.config_file)
             config = load_config(self.config_file)
             plan = _plan(config, self.config_file)
             health = _health(config, plan, bool(self.extra_nmea), recording=self.recorder is not None)

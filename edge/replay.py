@@ -9,8 +9,9 @@ runs; NMEA goes through the daemon's `NmeaScheduler` on an unlimited line,
 clocked by the pairs' own timestamps. No wall clock enters anywhere, so the
 same recording gives byte-identical output.
 
-Faults in the recording (missing or corrupt PNGs, sequence gaps, pairs the
-pipeline refuses) are counted and reported in the summary, never raised. A
+Faults in the recording (missing or corrupt PNGs, sequence gaps, timestamps
+that go back, pairs the pipeline refuses) are counted and reported in the
+summary, never raised. A
 directory that is not a recording is a configuration error (exit 78).
 """
 
@@ -40,6 +41,7 @@ class ReplaySummary:
     pairs_in_recording: int = 0
     skipped_pairs: int = 0  # unreadable/missing PNGs (the source skipped them)
     dropped_pairs: int = 0  # sequence-number gaps in the recording
+    unordered_pairs: int = 0  # timestamps not after the previous pair's (the source skipped them)
     pipeline: Counters = field(default_factory=Counters)
     tracks: int = 0  # distinct track ids that produced fixes
     nmea_lines: int = 0
@@ -49,7 +51,8 @@ class ReplaySummary:
         p = self.pipeline
         return [
             f"pairs in recording {self.pairs_in_recording}, read {p.pairs}, skipped (unreadable) "
-            f"{self.skipped_pairs}, dropped (sequence gaps) {self.dropped_pairs}",
+            f"{self.skipped_pairs}, dropped (sequence gaps) {self.dropped_pairs}, "
+            f"skipped (time going back) {self.unordered_pairs}",
             f"pipeline: processed {p.processed}, refused {p.bad_input}, failed {p.failed}, "
             f"coasted gaps {p.gaps}, detection passes {p.detections}",
             f"fixes {p.fixes} from {self.tracks} tracks; NMEA lines {self.nmea_lines}, "
@@ -109,5 +112,6 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
             if on_fixes is not None:
                 on_fixes(pair.t_ns, fixes)
     summary.skipped_pairs, summary.dropped_pairs = source.skipped, source.dropped
+    summary.unordered_pairs = source.out_of_order
     summary.tracks = len(seen)
     return summary

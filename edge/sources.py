@@ -54,7 +54,12 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
     """Resolve `cameras` and the calibration; ConfigError names the key on any problem."""
     cams = config.cameras  # relative paths in it are already resolved against the config file
     if isinstance(cams, VirtualCameras):
-        scenario = load_scenario(cams.scenario)
+        try:
+            scenario = load_scenario(cams.scenario)
+        except ConfigError as exc:
+            if exc.key or Path(exc.file).is_file():  # a mistake inside the scenario file: name that file
+                raise
+            raise ConfigError(config_file, "cameras.scenario", exc.expected, cams.scenario) from None
         cal = config.calibration or scenario.spec.calibration
         site = config.effective_site or scenario.spec.site or cal.site
         return SourcePlan(lambda: live_source(scenario, cams.seed, cams.pace, cams.loop),

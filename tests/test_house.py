@@ -180,3 +180,36 @@ def test_module_has_docstring_and_stays_small(path: Path) -> None:
 
 def test_package_ships_type_information() -> None:
     assert (ROOT / "edge" / "py.typed").exists() and (ROOT / "drivers" / "py.typed").exists()
+
+
+SHELL_CALLS = {"os.system", "os.popen", "os.execl", "os.execlp", "os.spawnl", "os.spawnlp",
+               "subprocess.getoutput", "subprocess.getstatusoutput", "asyncio.create_subprocess_shell"}
+
+
+def _shell_uses(source: str) -> list[str]:
+    """Calls that hand a string to a shell: os.system and kin, and any call with shell= not False."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.Call):
+            continue
+        name = ast.unparse(node.func)
+        if name in SHELL_CALLS or name in {"system", "popen"} or name.endswith("create_subprocess_shell"):
+            found.append(f"line {node.lineno}: {name}()")
+        for kw in node.keywords:
+            if kw.arg == "shell" and not (isinstance(kw.value, ast.Constant) and kw.value.value is False):
+                found.append(f"line {node.lineno}: {name}(shell={ast.unparse(kw.value)})")
+    return found
+
+
+def test_shell_finder_finds_what_it_must() -> None:
+    assert _shell_uses("import os, subprocess\nos.system('ls')\nsubprocess.run(x, shell=True)\n"
+                       "subprocess.run(['ls'], shell=False)\nos.popen('x')\nplatform.system()\n") == \
+        ["line 2: os.system()", "line 3: subprocess.run(shell=True)", "line 5: os.popen()"]
+
+
+@pytest.mark.parametrize(
+    "path", _modules("edge") + _modules("drivers"), ids=lambda p: str(p.relative_to(ROOT))
+)
+def test_no_shell_is_ever_invoked(path: Path) -> None:
+    """Data from config or the network never reaches a shell: commands are argument lists."""
+    assert _shell_uses(path.read_text()) == [], f"{path} invokes a shell"

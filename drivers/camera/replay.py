@@ -12,6 +12,13 @@ A recording with another format version, or without meta.yaml/frames.csv,
 is refused with `RecordingFormatError`. A missing or unreadable PNG is
 skipped: counted in `skipped` and logged with the file name, the rest plays.
 Jumps in the sequence numbers (pairs the recorder lost) add to `dropped`.
+A pair whose timestamp is not later than the last pair released (a clock
+step in the recorder, rows out of order), or lies further ahead than its
+sequence numbers allow (more than `AHEAD_SLACK_FRAMES` frame periods beyond
+the sequence step, when meta.yaml gives fps), is skipped, counted in
+`out_of_order` and logged once: the filters downstream assume time moves
+forward at the frame rate, and one stamp far ahead would make every later
+pair look like it went back.
 
 Pixels come back exactly as stored (IMREAD_UNCHANGED: grey stays 2-D), and
 timestamps and sequence numbers exactly as in frames.csv. With `pace=True`
@@ -35,6 +42,7 @@ from drivers.camera.base import FramePair, FramePairSource
 log = logging.getLogger(__name__)
 
 SUPPORTED_FORMAT = 1
+AHEAD_SLACK_FRAMES = 10
 FRAMES_HEADER = ("index", "t_ns", "seq_left", "seq_right", "t_left_ns", "t_right_ns")
 
 
@@ -86,6 +94,8 @@ def read_frames(root: str | Path) -> list[tuple[int, ...]]:
                 rows.append(values)
     except FileNotFoundError:
         raise RecordingFormatError(root, "not a recording (no frames.csv)") from None
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise RecordingFormatError(path, f"unreadable frames.csv ({exc})") from None
     return rows
 
 
@@ -114,6 +124,9 @@ class ReplaySource(FramePairSource):
         self._start: tuple[int, int] | None = None  # (wall clock, t_ns) of the first pair released
         self._offset_ns = 0  # added to timestamps on each loop so time keeps increasing
         self._last_seq: tuple[int, int] | None = None
+        self._last_t_ns: int | None = None
+        self._last_released_seq = (0, 0)
+        self.out_of_order = 0  # pairs skipped because their timestamp did not move forward
 
     @property
     def info(self) -> dict:
@@ -134,15 +147,36 @@ class ReplaySource(FramePairSource):
             index, t_ns, seq_l, seq_r, t_l, t_r = self.rows[self._next]
             self._next += 1
             self._count_gap(seq_l, seq_r)
+            if not self._in_order(t_ns + self._offset_ns, seq_l, seq_r):
+                self._count_out_of_order(index, t_ns + self._offset_ns)
+                continue
             left, right = self._image("left", index), self._image("right", index)
             if left is None or right is None:
                 self.skipped += 1
                 continue
             off = self._offset_ns
             pair = FramePair(left, right, t_ns + off, seq_l, seq_r, t_l + off, t_r + off)
+            self._last_t_ns, self._last_released_seq = pair.t_ns, (seq_l, seq_r)
             self._wait(pair.t_ns)
             return pair
         return None
+
+    def _in_order(self, t_ns: int, seq_l: int, seq_r: int) -> bool:
+        if self._last_t_ns is None:
+            return True
+        if t_ns <= self._last_t_ns:
+            return False
+        fps = self.meta.get("fps")
+        if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
+            return True
+        steps = max(seq_l - self._last_released_seq[0], seq_r - self._last_released_seq[1], 1)
+        return t_ns - self._last_t_ns <= (steps + AHEAD_SLACK_FRAMES) * 1e9 / fps
+
+    def _count_out_of_order(self, index: int, t_ns: int) -> None:
+        if self.out_of_order == 0:
+            log.warning("recording %s: skipping pair %d, its time %d ns does not follow the previous "
+                        "pair's %d ns (counted from now on)", self.root, index, t_ns, self._last_t_ns)
+        self.out_of_order += 1
 
     def _count_gap(self, seq_l: int, seq_r: int) -> None:
         if self._last_seq is not None:

@@ -1,7 +1,8 @@
 """`mast-stereo run --config FILE`: the daemon systemd starts (Type=notify).
 
 Loads and checks the configuration, calibration and outputs before opening
-any device (a mistake exits 78 with one line naming file and key), then runs
+any device (a mistake exits 78 with one line naming file and key; so does a
+configuration or calibration file that others can write: edge.config.trust), then runs
 `edge.daemon.Appliance` until SIGTERM/SIGINT, the end of a finite source, or
 `--seconds`; SIGHUP reloads the configuration file (`systemctl reload`). READY=1,
 STATUS=, WATCHDOG=1, RELOADING=1 and STOPPING=1 go to systemd when $NOTIFY_SOCKET is
@@ -20,12 +21,8 @@ import signal
 import sys
 import threading
 
-from drivers.notify import SystemdNotifier
 from edge.config.app import load_config
-from edge.console import LiveTable
-from edge.daemon import Appliance
-from edge.journal import setup_logging
-from edge.outputs.nmea_stream import NmeaStreamOutput
+from edge.config.trust import check_config_files
 
 EX_CANTCREAT = 73
 
@@ -41,7 +38,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_config_files(args.config)  # a file others can change is refused (exit 78) before it is used
     config = load_config(args.config)
+    # imported only now: a configuration mistake exits 78 without loading OpenCV, pymodbus and the rest
+    from drivers.notify import SystemdNotifier
+    from edge.console import LiveTable
+    from edge.daemon import Appliance
+    from edge.journal import setup_logging
+    from edge.outputs.nmea_stream import NmeaStreamOutput
+
     setup_logging(config.logging.level)
     extra = [NmeaStreamOutput(sys.stdout)] if args.print_nmea else []
     try:

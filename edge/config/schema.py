@@ -105,6 +105,8 @@ def load_yaml(path: str | Path) -> Any:
         raise ConfigError(path, "", "UTF-8 text", f"undecodable byte at offset {exc.start}") from None
     try:
         return yaml.load(text, Loader=_StrictLoader)  # a SafeLoader subclass
+    except RecursionError:  # PyYAML's composer recurses once per nesting level
+        raise ConfigError(path, "", "a YAML document", "nesting deeper than the recursion limit") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -124,7 +126,10 @@ def load_dataclass(cls: type[T], data: Any, file: str | Path | None, key_prefix:
 
 
 def child_key(prefix: str, name: str) -> str:
-    """Key path of a mapping entry: ``outputs`` + ``nmea`` -> ``outputs.nmea``."""
+    """Key path of a mapping entry: ``outputs`` + ``nmea`` -> ``outputs.nmea``; a name that would
+    not read as a key (empty, spaces, a dot) is quoted: ``outputs.''``."""
+    if not name or name != name.strip() or "." in name or any(not c.isprintable() for c in name):
+        name = repr(name)
     return f"{prefix}.{name}" if prefix else name
 
 
@@ -227,7 +232,7 @@ def _build_union(members: tuple[Any, ...], value: Any, file: Any, key: str, meta
             raise ConfigError(
                 file, child_key(key, tag), f"one of {join_repr(tags)} (required key is missing)"
             )
-        chosen = tags.get(value[tag])
+        chosen = next((m for t, m in tags.items() if type(t) is type(value[tag]) and t == value[tag]), None)
         if chosen is None:
             raise ConfigError(
                 file,

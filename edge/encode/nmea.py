@@ -8,7 +8,8 @@ research/nmea-modbus.md):
   the checksum is the XOR of every character between ``$`` and ``*``.
 - Fields never contain the reserved characters ``$ * , ! \\ ^ ~`` or anything
   outside printable ASCII; a violation raises `NmeaError` instead of sending
-  a line that a receiver would mis-split.
+  a line that a receiver would mis-split. Target names given from outside are
+  sanitised first (`sanitise_name`); our own are ``TRK`` + the track id.
 - Unknown values (``None`` or non-finite) are empty fields, never 0: OpenCPN
   reads a TTM distance of 0 as a lost target, so a live target whose distance
   rounds to ``0.000`` NM is sent as ``0.001`` (the smallest printable value).
@@ -159,6 +160,22 @@ def target_name(track_id: int) -> str:
     return "TRK"[: max(0, NAME_CHARS - len(digits))] + digits
 
 
+def sanitise_name(text: str, track_id: int) -> str:
+    """A target name from outside (an AIS name, an operator's label) made safe for any field.
+
+    Only printable ASCII stays, without the reserved ``$ * , ! \\ ^ ~`` (IEC 61162-1: they
+    would split or end the sentence, and a control character could end the line); runs of
+    spaces collapse, and at most `NAME_CHARS` remain so every sentence keeps within 82
+    characters. Nothing left: the track's own ``TRK`` name.
+    """
+    kept = "".join(c for c in text if " " <= c <= "~" and c not in RESERVED_CHARS)
+    return " ".join(kept.split())[:NAME_CHARS].strip() or target_name(track_id)
+
+
+def _name(fix: ShipFix, name: str | None) -> str:
+    return target_name(fix.track_id) if name is None else sanitise_name(name, fix.track_id)
+
+
 def fmt_target_number(number: int, digits: int = 2) -> str:
     """Target number zero-padded to `digits` (2: 01-99, 3 only by configuration)."""
     if not 0 <= number < 10**digits:
@@ -180,7 +197,7 @@ def ttm(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name:
         "",  # distance of CPA: meaningless for a fixed station
         "",  # time to CPA
         "N",
-        target_name(fix.track_id) if name is None else name,
+        _name(fix, name),
         fix.status.value,
         "",  # reference target: never
         fmt_utc(fix.t_ns),
@@ -199,7 +216,7 @@ def tll(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name:
         lat_hemisphere,
         lon,
         lon_hemisphere,
-        target_name(fix.track_id) if name is None else name,
+        _name(fix, name),
         fmt_utc(fix.t_ns),
         fix.status.value,
         "",  # reference target
@@ -237,7 +254,7 @@ def txy(
         fmt_number(vx_mps, 2),
         fmt_number(vy_mps, 2),
         fmt_number(fix.sigma_m, 1),
-        target_name(fix.track_id) if name is None else name,
+        _name(fix, name),
         fmt_utc(fix.t_ns),
         fix.status.value,
     ]

@@ -19,6 +19,8 @@ from edge.health import HealthSnapshot
 log = logging.getLogger(__name__)
 
 RETRY_MIN_S, RETRY_MAX_S = 1.0, 30.0
+MODBUS_COUNTERS = ("requests", "exceptions", "writes", "garbage", "clients", "refused_clients",
+                   "idle_closed", "unread_closed")  # ModbusStats fields shown as health counters
 
 
 class _ServerSlot:
@@ -91,8 +93,14 @@ class ModbusOutput:
         return [image.registers] if served else []
 
     def health(self) -> tuple[str | None, dict[str, int]]:
+        """Start faults, and the servers' counters: refused writes and hostile clients show here."""
         errors = [s.error for s in self._slots if s.error]
-        return "; ".join(errors) or None, {"start_failures": sum(s.failures for s in self._slots)}
+        counters = {"start_failures": sum(s.failures for s in self._slots)}
+        for slot in self._slots:
+            stats = slot.server.stats
+            for name in MODBUS_COUNTERS:
+                counters[f"modbus_{name}"] = counters.get(f"modbus_{name}", 0) + getattr(stats, name)
+        return "; ".join(errors) or None, counters
 
     def close(self) -> None:
         for slot in self._slots:

@@ -393,3 +393,14 @@ def test_virtual_server_follows_the_same_rules() -> None:
     with pytest.raises(OverflowError):
         v.update([-1])
     assert v.request(3, 4, 9) == [9]  # a rejected update leaves the last image in place
+
+
+def test_a_non_loopback_listening_address_is_logged_as_a_warning_naming_it(caplog) -> None:
+    caplog.set_level("WARNING", logger="drivers.modbus")
+    with ModbusTcpServer("127.0.0.1", free_port()):
+        pass
+    assert not [r for r in caplog.records if "non-loopback" in r.getMessage()]
+    with ModbusTcpServer("0.0.0.0", free_port()):  # all interfaces: what a site might configure
+        pass
+    warned = [r.getMessage() for r in caplog.records if "non-loopback" in r.getMessage()]
+    assert len(warned) == 1 and "listening on 0.0.0.0" in warned[0]

@@ -153,9 +153,10 @@ def test_target_numbers_are_padded_and_bounded() -> None:
 
 
 @pytest.mark.parametrize("bad", ["$", "*", ",", "!", "\\", "^", "~", "\r", "\n", "\t", "é"])
-def test_reserved_characters_in_fields_are_refused(bad: str) -> None:
+def test_reserved_characters_in_fields_are_refused_and_removed_from_names(bad: str) -> None:
     with pytest.raises(nmea.NmeaError, match="reserved"):
-        nmea.ttm(make_fix(), 7, name=f"A{bad}B")
+        nmea.sentence("RATTM", ["07", f"A{bad}B"])
+    assert ",AB," in nmea.ttm(make_fix(), 7, name=f"A{bad}B")  # a name from outside is sanitised
 
 
 def test_82_character_limit_is_enforced() -> None:
@@ -301,3 +302,23 @@ def test_every_sentence_parses_with_pynmea2_and_pynmeagps_and_obeys_opencpn(
         fields = line[1:].split("*")[0].split(",")
         assert len(fields) == {"TTM": 16, "TLL": 10}.get(fields[0][2:], 10)  # trailing empties kept
         check(line, fix, number)
+
+
+HOSTILE_NAMES = st.text(max_size=40) | st.sampled_from(
+    ["$GPGGA,1*00\r\n", "A,B", "X*7F", "\\s:x*00\\", "~^!", "\x00\x1b[2J", " ", "ÄGIR 1", "A VERY LONG SHIP"])
+
+
+@settings(max_examples=60, deadline=None)
+@given(fixes(), st.integers(1, 99), HOSTILE_NAMES)
+def test_any_target_name_from_outside_gives_valid_sentences_within_82_chars(
+    fix: ShipFix, number: int, name: str
+) -> None:
+    safe = nmea.sanitise_name(name, fix.track_id)
+    assert 1 <= len(safe) <= nmea.NAME_CHARS and safe == safe.strip()
+    assert all(" " <= c <= "~" and c not in "$!*,\\^~" for c in safe)
+    for line in (nmea.ttm(fix, number, name=name), nmea.tll(fix, number, name=name),
+                 nmea.txy(fix, number, name=name)):
+        assert len(line) <= nmea.MAX_SENTENCE_CHARS and line.count("$") == 1 and line.endswith("\r\n")
+        assert line.count("\r") == line.count("\n") == 1 and opencpn_accepts(line)
+    assert pynmea2.parse(nmea.ttm(fix, number, name=name), check=True).name == safe
+    assert pynmea2.parse(nmea.tll(fix, number, name=name), check=True).target_name == safe

@@ -182,3 +182,19 @@ def test_every_output_keeps_the_contract_and_counts_in_its_own_unit(tmp_path) ->
                                   "csv_rows": 2, "modbus_images": 1}
     nmea = {s.name: s for s in health.snapshot().stages}["nmea"].counters
     assert (nmea["nmea_serial_groups"], nmea["nmea_udp_datagrams"], nmea["nmea_stream_groups"]) == (2, 4, 2)
+
+
+def test_refused_modbus_writes_are_counted_in_the_modbus_stage() -> None:
+    clock = Clock()
+    health = HealthMonitor(standard_stages(OUTPUT_STAGES), clock=clock)
+    server = VirtualModbusServer()
+    outputs = Outputs([], health)
+    outputs.add_modbus([server], Identity(firmware_version()), clock)
+    outputs.start()
+    outputs.publish([fix(1, 900.0)], T_NS)
+    assert server.request(1, 6, 0, values=[1]) == server.request(1, 16, 3, values=[1, 2]) == 2  # 02
+    assert server.request(1, 4, 0, 2) is not None
+    outputs.publish([fix(1, 900.0)], T_NS)
+    modbus = {s.name: s for s in health.snapshot().stages}["modbus"]
+    assert modbus.fault is None
+    assert (modbus.counters["modbus_writes"], modbus.counters["modbus_requests"]) == (2, 3)

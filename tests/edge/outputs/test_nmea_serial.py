@@ -10,7 +10,6 @@ XON/XOFF flow control (or by a virtual port that never returns).
 from __future__ import annotations
 
 import datetime as dt
-import math
 import statistics
 import time
 from pathlib import Path
@@ -22,12 +21,10 @@ import socat_pty
 
 from drivers.serial_port import VirtualSerialPort
 from edge.encode.nmea import MAX_SENTENCE_CHARS
-from edge.fix import ShipFix, TrackStatus
+from edge.faults.serial_rig import T0_NS, fix, step_times
+from edge.fix import TrackStatus
 from edge.outputs.nmea_serial import NmeaSerialOutput, serial_bytes_per_s
 from edge.outputs.schedule import BURST_S, NmeaSchedule, NmeaScheduler, schedule_from_config
-
-T0_NS = 1_780_000_000 * 10**9
-SITE_LAT, SITE_LON = 53.54, 9.96
 
 
 class Clock:
@@ -38,21 +35,6 @@ class Clock:
 
     def __call__(self) -> float:
         return self.t_s
-
-
-def fix(track_id: int, t_s: float, status: TrackStatus = TrackStatus.TRACKING, **kw: object) -> ShipFix:
-    """Track `track_id` at time `t_s`: a ship 1-5 km out, moving; all fields plausible."""
-    range_m = 1000.0 + 97.0 * (track_id % 40) + 3.0 * t_s
-    bearing = (17.0 * track_id + 0.1 * t_s) % 360.0
-    north, east = range_m * math.cos(math.radians(bearing)), range_m * math.sin(math.radians(bearing))
-    values = dict(
-        t_ns=T0_NS + int(t_s * 1e9), track_id=track_id, status=status, x_m=east, y_m=0.0, z_m=north,
-        range_m=range_m, bearing_deg=bearing, lat_deg=SITE_LAT + north / 111_320.0,
-        lon_deg=SITE_LON + east / (111_320.0 * math.cos(math.radians(SITE_LAT))), sog_kn=9.5,
-        cog_deg=(bearing + 90.0) % 360.0, sigma_m=4.0, disparity_px=3.0,
-    )  # fmt: skip
-    values.update(kw)
-    return ShipFix(**values)  # type: ignore[arg-type]
 
 
 def numbers_of(groups: list[tuple[str, ...]]) -> list[int]:
@@ -230,23 +212,8 @@ def test_pty_reader_gets_exactly_the_scheduled_sentences_inside_the_4800_baud_bu
     assert (cum[-1] - cum[0]) / (t[-1] - t[0]) >= 0.8 * out.bytes_per_s  # 20 tracks fill the budget
 
 
-def _step_times(
-    output: NmeaSerialOutput, seconds: float, t_offset: float
-) -> tuple[list[float], float]:
-    """Run processing steps (~2 ms of numpy + 20 fixes published to `output`) for `seconds`.
-
-    Returns each step's duration and the longest single publish() call.
-    """
-    rng = np.random.default_rng(0)
-    durations, longest_publish_s, start = [], 0.0, time.perf_counter()
-    while (t := time.perf_counter()) - start < seconds:
-        np.sort(rng.random(80_000))  # stands in for matching and triangulation
-        fixes = [fix(i, t_offset + len(durations) / 30) for i in range(1, 21)]
-        before = time.perf_counter()
-        output.publish(fixes)
-        longest_publish_s = max(longest_publish_s, time.perf_counter() - before)
-        durations.append(time.perf_counter() - t)
-    return durations, longest_publish_s
+def _step_times(output: NmeaSerialOutput, seconds: float, t_offset: float) -> tuple[list[float], float]:
+    return step_times(output.publish, seconds, t_offset)
 
 
 def test_stalled_port_does_not_slow_processing(tmp_path: Path) -> None:
