@@ -20,10 +20,11 @@ f (dx_left - dx_right), the right camera evaluated at its own x_r = x - d / f. A
 both cameras together by a horizontal w (about X, pitch; and about Z, roll) of tilt_sigma per
 component: it moves rows and columns and almost cancels in the disparity.
 
-**Focal lengths.** A camera whose focal length is off by df reports normalised coordinates
-scaled by f / (f + df): dx = -x df / f, dy = -y df / f (eq. C.2). In the disparity that is the
-range scale (both cameras alike: f (x_l - x_r) df / f = d df / f) plus, where the two differ,
-an offset growing with the column.
+**Focal lengths.** A camera whose focal length is off by df reports its own (camera-frame)
+normalised coordinates scaled by f / (f + df): (dx_c, dy_c) = -(x_c, y_c) df / f, turned into the
+world frame by its rotation R and projected back to z = 1 (eq. C.2; for a camera looking along
++Z simply -(x, y) df / f). In the disparity that is the range scale (both cameras alike:
+f (x_l - x_r) df / f = d df / f) plus, where the two differ, an offset growing with the column.
 
 The sources are independent (the per-camera fits are; with tie points the joint fit correlates
 them, which this ignores), so the variances add. Float only: this runs once per fix, outside
@@ -71,6 +72,20 @@ def direction_shift(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> tuple[np.nda
     return -x * y * wx + (1.0 + x * x) * wy - y * wz, -(1.0 + y * y) * wx + x * y * wy + x * wz
 
 
+def focal_shift(x: np.ndarray, y: np.ndarray, rotation_deg: tuple[float, float, float],
+                rel: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. C.2: the move of world-normalised (x, y) when the camera's focal length is off by the
+    relative amount rel (df / f)."""
+    r = rotation_matrix(rotation_deg)
+    d = np.stack([x, y, np.ones_like(x)], -1)
+    c = d @ r  # R^T d: the camera-frame direction (rows)
+    c = c / c[..., 2:3]
+    dc = np.stack([-c[..., 0] * rel, -c[..., 1] * rel, np.zeros_like(x)], -1)
+    rc, drc = c @ r.T, dc @ r.T
+    z = rc[..., 2]
+    return ((drc[..., 0] - x * drc[..., 2]) / z, (drc[..., 1] - y * drc[..., 2]) / z)
+
+
 @dataclass(frozen=True)
 class Pointing:
     """What the calibration's standard errors and the mast tilt bound do at image points.
@@ -107,11 +122,8 @@ class Pointing:
                     w = axes[k] * math.radians(cam.rotation_sigma_deg[k])
                     dx, dy = direction_shift(xs, y, w)
                     add(dx, dy, zero) if side == "left" else add(zero, zero, dx)
-                rel = cam.focal_sigma_px / f  # eq. C.2
-                if side == "left":
-                    add(-x * rel, -y * rel, zero)
-                else:
-                    add(zero, zero, -x_r * rel)
+                dx, dy = focal_shift(xs, y, rot, cam.focal_sigma_px / f)  # eq. C.2
+                add(dx, dy, zero) if side == "left" else add(zero, zero, dx)
         if self.tilt_sigma_deg > 0.0:
             for axis in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])):  # pitch, roll of the mast
                 w = axis * math.radians(self.tilt_sigma_deg)
