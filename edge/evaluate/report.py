@@ -200,7 +200,7 @@ def evaluate_recording(root: Path, stages: bool | None, plot_dir: Path | None,
                   f"error RMS {fmt(sp['rms_kn'])} kn, max {fmt(sp['max_kn'])} kn")
     sig = em.sigma_check(ev)
     print(f"false T fixes {len(ev.false_fixes)}; 3-sigma check: {sig}")
-    calibration = es.sigma_rows(ev, ships, es.model_hulls(meta))
+    calibration = es.sigma_rows(ev, ships, es.model_hulls(meta) if ev.matched else None)
     print("\n".join(es.format_sigma(calibration)))
     summary = {"recording": str(root), "scenario": name, "counters": vars(product.counters), "bins": rows,
                "id_switches": ev.id_switches, "first_t_s": delays, "false_fixes": len(ev.false_fixes),

@@ -94,24 +94,33 @@ class ModelHulls:
         import copy
 
         from edge.config.schema import load_yaml
-        from edge.sim.scenario import scenario_from_dict, scenario_path
-        from edge.sim.simulator import Simulation
+        from edge.sim.scenario import build_ships, scenario_from_dict, scenario_path
+        from edge.sim.scene import World
 
         name = str(meta["scenario"])
         path = scenario_path(name.split("@")[0])  # NAME@WIDTH: tools/render-variant's, same ships
         data = copy.deepcopy(load_yaml(path))
         data["calibration"] = meta["calibration"]
         data["site"] = meta.get("site", data.get("site"))
-        self.sim = Simulation(scenario_from_dict(data, path, name), int(meta.get("seed", 0)))
-        self.index = {s.ship_id: i for i, s in enumerate(self.sim.ships)}
-        self.left_origin = np.array([-0.5 * self.sim.rig.baseline_m, 0.0, 0.0])
+        scenario = scenario_from_dict(data, path, name)
+        spec = scenario.spec
+        self.world = World(scenario.site.height_m, spec.atmosphere, spec.sky, spec.sea, spec.sun)
+        self.ships = build_ships(spec, path)  # the simulator's own (edge.sim.simulator.Simulation)
+        self.index = {s.ship_id: i for i, s in enumerate(self.ships)}
+        self.left_origin = np.array([-0.5 * scenario.calibration.rig.baseline_m, 0.0, 0.0])
+
+    def posed_ships(self, t_s: float) -> list:
+        """The ships at time t_s, as the renderer poses them (Simulation.posed_ships)."""
+        from edge.sim.rays import PosedShip
+
+        return [PosedShip(i, s.model, *s.pose(t_s, self.world.surface_y_m)) for i, s in enumerate(self.ships)]
 
     def errors_m(self, ship_id: int, t_ns: np.ndarray, xyz_m: np.ndarray) -> np.ndarray:
         """e of fixes (n, 3) of one ship at their times."""
         i = self.index[ship_id]
-        local = np.array([self.sim.posed_ships(float(t) / 1e9)[i].to_local(p[None])[0]
+        local = np.array([self.posed_ships(float(t) / 1e9)[i].to_local(p[None])[0]
                           for t, p in zip(t_ns, xyz_m, strict=True)])
-        dist = np.stack([polyhedron_distance_m(local, part.planes) for part in self.sim.ships[i].model.parts])
+        dist = np.stack([polyhedron_distance_m(local, part.planes) for part in self.ships[i].model.parts])
         deepest = dist.min(axis=0)  # < 0: inside some part, by the depth of the part it is deepest in
         return np.abs(deepest)
 
@@ -125,7 +134,7 @@ class ModelHulls:
         out = np.full(len(t_ns), np.nan)
         for k, (t, p) in enumerate(zip(t_ns, xyz_m, strict=True)):
             ray = (p - origin) / (p - origin)[2]
-            hit = cast(origin, ray[None], self.sim.posed_ships(float(t) / 1e9))
+            hit = cast(origin, ray[None], self.posed_ships(float(t) / 1e9))
             if hit.ship[0] == self.index[ship_id] and np.isfinite(hit.t[0]):
                 out[k] = float(np.linalg.norm(p - origin) - hit.t[0] * np.linalg.norm(ray))
         return out
