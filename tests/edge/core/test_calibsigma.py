@@ -80,7 +80,7 @@ def test_standard_errors_match_a_monte_carlo_of_the_fit(model: str) -> None:
     truth = RIGS[model]()
     rng = np.random.default_rng(16)
     errors, reported = [], []
-    for _ in range(24):
+    for _ in range(20):
         pts, ul, ur = landmarks(truth, 14, rng, z_range=(150.0, 3000.0))
         got = fit(model, pts, ul + rng.normal(0, 0.3, ul.shape), ur + rng.normal(0, 0.3, ur.shape))
         sig = rig_sigma(got)
@@ -94,7 +94,7 @@ def test_standard_errors_match_a_monte_carlo_of_the_fit(model: str) -> None:
     spread = np.sqrt(np.mean(np.square(errors), axis=0))  # per parameter, over the seeds
     claimed = np.sqrt(np.mean(np.square(reported), axis=0))
     ratio = spread / claimed
-    assert np.all((ratio > 0.6) & (ratio < 1.6)), ratio  # 24 seeds: the RMS itself scatters by ~15 %
+    assert np.all((ratio > 0.6) & (ratio < 1.6)), ratio  # 20 seeds: the RMS itself scatters by ~16 %
     assert 0.8 < math.sqrt(np.mean(ratio**2)) < 1.25, ratio
 
 
