@@ -10,7 +10,9 @@ and 2 deg) against the bridge (truth.csv), the detection rate (pairs where a shi
 >= 20 px has a T fix), and the IMO share against the hull outline instead ("IMO hull": how
 often the point of the ship a fix measures is measured to IMO accuracy); then per
 ship the id switches and the time from covering 20 px to the first T fix, false fixes, and
-how the reported 1-sigma holds (fixes more than 3 sigma outside the hull outline).
+how the reported 1-sigma holds (fixes more than 3 sigma outside the hull outline); then
+ruling 1's calibration criterion against ruling 4's 3-D hull error and IMO against the hull as
+the pass/fail column (edge/evaluate/sigma.py).
 
 With --stages (the default for akashi-crossing) it also runs the thesis's stages side by
 side on the same pairs: whole-pixel matching, sub-pixel parabola (eq. 5.2), Butterworth
