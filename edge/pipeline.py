@@ -34,6 +34,7 @@ import numpy as np
 from drivers.camera.base import FramePair
 from edge.config.app import PipelineConfig
 from edge.config.calibration import Calibration
+from edge.core.calibsigma import Pointing
 from edge.core.geo import KNOT_MPS, range_bearing, speed_course, world_to_latlon
 from edge.core.rectify import Rectifier
 from edge.core.shipmotion import world_velocity, world_velocity_sigma
@@ -92,6 +93,10 @@ class Pipeline:
         self.table = TrackTable(self.rect, site.height_m, self.point_settings,
                                 TableSettings(coast_s=cfg.coast_s, max_tracks=cfg.max_tracks,
                                               waterline_tol_px=2.0 + 2.0 * cfg.detect_decimation))
+        self.pointing = Pointing(self.rect.f_px, self.rig.left.rotation_deg, self.rig.right.rotation_deg,
+                                 calibration.sigma,
+                                 site.tilt_sigma_deg or 0.0)
+        self.table.pointing = self.pointing
         self.counters = Counters()
         self._last_t_ns: int | None = None
         self._since_detect = cfg.detect_every - 1  # detect on the first pair
@@ -178,11 +183,10 @@ class Pipeline:
         xy_l = self.rect.rect_to_normalised(np.stack([u, v], -1))
         xy_r = xy_l - np.stack([d / f, np.zeros_like(d)], -1)
         world = triangulate_normalised(xy_l, xy_r, b)  # eq. 4.1
-        # the filter's sigma and, composed in quadrature, the aliasing check's term (0 unless on)
-        sigma_d = np.array([math.hypot(t.point.sigma_px, t.point.alias_sigma_px) for t in live])
-        err = position_error(world, sigma_d / f, b)  # eq. 4.5, the far side (the larger one)
-        sigma_m = np.where(np.isfinite(err).all(axis=-1), np.hypot(err[..., 0], err[..., 2]), math.inf)
         range_m, bearing = range_bearing(world, self.site.heading_deg)
+        # the filter's sigma and, in quadrature, the aliasing check's term (0 unless pipeline.alias_check)
+        sigma_d = np.array([math.hypot(t.point.sigma_px, t.point.alias_sigma_px) for t in live])
+        sigma_m = self._sigma_m(world, xy_l, d, sigma_d, range_m)
         lat, lon, _ = world_to_latlon(world, self.site)
         d_rate = np.array([t.point.rate_pxps for t in live])
         u_rate = np.array([t.point.u_rate_known_pxps for t in live])
@@ -213,6 +217,20 @@ class Pipeline:
                 sigma_m=sig_m, disparity_px=d_px, age_s=t.age_s(t_ns), confidence=t.confidence,
                 length_m=((x1_rel + u_px) - (x0_rel + u_px)) * z_m / f))
         return fixes
+
+    def _sigma_m(self, world: np.ndarray, xy_l: np.ndarray, d: np.ndarray, sigma_d: np.ndarray,
+                 range_m: np.ndarray) -> np.ndarray:
+        """Each fix's 1-sigma, m: along the line of sight eq. 4.5's range error (its far side, the
+        larger) for the filter's disparity sigma and the calibration's disparity share in quadrature,
+        across it the range times the calibration's column sigma over f (the bearing;
+        edge.core.calibsigma). Without calibration standard errors or a tilt bound the bearing
+        share is 0 and this is eq. 4.5 alone."""
+        f, b = self.rect.f_px, self.rig.baseline_m
+        _, col_px, disp_px = self.pointing.sigmas(xy_l[..., 0], xy_l[..., 1], d)
+        err = position_error(world, np.hypot(sigma_d, disp_px) / f, b)  # eq. 4.5
+        along = np.hypot(err[..., 0], err[..., 2])
+        sigma_m = np.hypot(along, range_m * col_px / f)
+        return np.where(np.isfinite(err).all(axis=-1), sigma_m, math.inf)
 
     def _log_once(self, key: str, msg: str, *args: object) -> None:
         if key not in self._logged:

@@ -72,7 +72,8 @@ def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | N
     cal = recording_calibration(root, source.meta)
     pipeline_cfg = PipelineConfig()
     if config is not None:
-        cal = Calibration((config.calibration or cal).rig, config.effective_site or cal.site)
+        chosen = config.calibration or cal
+        cal = Calibration(chosen.rig, config.effective_site or cal.site, chosen.sigma)
         pipeline_cfg = config.pipeline
     if cal.site is None:
         raise ConfigError(Path(root) / "meta.yaml", "site",

@@ -63,7 +63,7 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
         cal = config.calibration or scenario.spec.calibration
         site = config.effective_site or scenario.spec.site or cal.site
         return SourcePlan(lambda: live_source(scenario, cams.seed, cams.pace, cams.loop),
-                          Calibration(cal.rig, site), scenario.spec.fps,
+                          Calibration(cal.rig, site, cal.sigma), scenario.spec.fps,
                           f"virtual scenario {cams.scenario!r} seed {cams.seed}", monotonic_stamps=cams.pace)
     if isinstance(cams, ReplayCameras):
         root = Path(cams.path)
@@ -79,7 +79,8 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
         if not fps > 0:
             raise ConfigError(root / "meta.yaml", "fps", "a positive frame rate", fps)
         return SourcePlan(lambda: ReplaySource(root, pace=cams.pace, loop=cams.loop),
-                          Calibration(cal.rig, site), fps, f"recording {root}", monotonic_stamps=False)
+                          Calibration(cal.rig, site, cal.sigma), fps, f"recording {root}",
+                          monotonic_stamps=False)
     return _v4l2_plan(config, cams, config_file)
 
 
@@ -103,7 +104,7 @@ def _v4l2_plan(config: AppConfig, cams: V4l2Cameras, config_file: str | Path | N
     rate_hz = built.trigger.rate_hz
     description = (f"v4l2 {built.left.device} + {built.right.device}, {cams.width}x{cams.height} "
                    f"{cams.pixel_format}, {built.trigger.describe()}")
-    calibration = Calibration(config.calibration.rig, config.effective_site)
+    calibration = Calibration(config.calibration.rig, config.effective_site, config.calibration.sigma)
     # a short read timeout: camera faults reach health within 0.4 s, not at the next pair
     timeout_s = read_timeout_s(rate_hz)
     return SourcePlan(lambda: cameras_from_config(cams.block()).source(read_timeout_s=timeout_s,

@@ -21,7 +21,10 @@ site is also written into the calibration. --cx/--cy fix the principal point
 (default: the image centre); --fit-k3 adds the pinhole's k3 term.
 
 Writes CALIB.yaml (the DESIGN.md calibration format, validated by loading it
-back) and a report (stdout, or --report FILE): per-point residuals in px,
+back), with each camera's `rotation_sigma_deg` and `focal_sigma_px` (the fit's
+standard errors: from its Jacobian and residual variance, edge.core.calibfit),
+which the pipeline carries into the fixes' sigma and the height test's row
+sigma (edge.core.calibsigma); and a report (stdout, or --report FILE): per-point residuals in px,
 triangulated range error of every landmark both cameras see, the vertical
 disparity left after calibration, RMS and the noise estimate, parameter
 standard errors and the worst points. Bad input and layouts the landmarks
@@ -42,7 +45,7 @@ import yaml
 
 from edge.config.calibration import Calibration, calibration_from_dict, calibration_to_dict, site_from_dict
 from edge.config.schema import load_yaml
-from edge.core.calibfit import CalibrationError, RigFit, fit_rig, relative_rotation_deg
+from edge.core.calibfit import CalibrationError, RigFit, fit_rig, relative_rotation_deg, rig_sigma
 from edge.core.geodesy import geodetic_to_world
 from edge.core.site import Site
 from edge.errors import ConfigError
@@ -271,7 +274,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(args.landmarks, exc.subject, exc.expected, exc.found) from None
     except ValueError as exc:  # e.g. a non-positive image size or baseline reaching StereoRig
         raise ConfigError("command line", "--baseline/--width/--height", "a valid rig", str(exc)) from None
-    data: dict[str, Any] = calibration_to_dict(Calibration(fit.rig, site))
+    data: dict[str, Any] = calibration_to_dict(Calibration(fit.rig, site, rig_sigma(fit)))
     calibration_from_dict(data, args.out)  # the fitted model must pass the loader's own checks
     pp_text = "image centre" if pp is None else f"({pp[0]}, {pp[1]})"
     header = (

@@ -10,6 +10,12 @@ cameras:
 site: {lat_deg: .., lon_deg: .., height_m: .., heading_deg: ..}     # optional
 ```
 
+Optional (issue 16; files without them load unchanged): each camera's `rotation_sigma_deg:
+[s_rx, s_ry, s_rz]` and `focal_sigma_px` (the fit's standard errors, written by `mast-stereo
+calibrate`; both cameras or neither, both keys of a camera or neither), and the site's
+`tilt_sigma_deg` (a 1-sigma bound on the mast's lean, per horizontal axis). They become the
+fixes' calibration share of sigma (edge.core.calibsigma).
+
 Besides types and unknown keys (edge.config.schema), a calibration is checked for
 what would silently give wrong positions: a positive baseline and focal
 lengths (fx, fy; a0, a5 for poly10), a principal point inside the image, and
@@ -27,6 +33,7 @@ from typing import Any, Literal
 import numpy as np
 
 from edge.config.schema import load_dataclass, load_yaml, setting
+from edge.core.calibsigma import CameraSigma, RigSigma
 from edge.core.camera import CameraModel, PinholeCamera, Poly10Camera, StereoRig
 from edge.core.site import Site
 from edge.errors import ConfigError
@@ -40,6 +47,7 @@ class Calibration:
 
     rig: StereoRig
     site: Site | None = None
+    sigma: RigSigma | None = None  # the fit's standard errors (None: an older or hand-written file)
 
 
 # ---------------------------------------------------------------- file schema
@@ -53,6 +61,10 @@ class SiteSchema:
         doc="height of the baseline midpoint above mean sea level", min=-500.0, max=9000.0
     )
     heading_deg: float = setting(doc="true azimuth of the optical axis (world +Z)", min=0.0, max=360.0)
+    tilt_sigma_deg: float | None = setting(
+        None, min=0.0, max=5.0,
+        doc="1-sigma bound on the mast's lean (each horizontal axis) since calibration, degrees; null: "
+        "none given (with calibration standard errors: 0; without them the 0.5 px row figure stands)")
 
 
 @dataclass(frozen=True)
@@ -73,6 +85,10 @@ class _Pinhole:
     cy: float = setting(doc="principal point, pixels")
     dist: tuple[float, float, float, float, float] = setting(doc="OpenCV k1, k2, p1, p2, k3")
     rotation_deg: tuple[float, float, float] = setting(doc=_ROT)
+    rotation_sigma_deg: tuple[float, float, float] | None = setting(
+        None, min=0.0, max=10.0, doc="standard errors of rx, ry, rz (deg), from `mast-stereo calibrate`")
+    focal_sigma_px: float | None = setting(
+        None, min=0.0, doc="standard error of the focal length (px), from `mast-stereo calibrate`")
 
 
 @dataclass(frozen=True)
@@ -82,6 +98,10 @@ class _Poly10:
     cy: float = setting(doc="pixel origin of eq. 3.5 (principal point)")
     coeffs: tuple[float, ...] = setting(min_items=10, max_items=10, doc="a0..a9 of eq. 3.5")
     rotation_deg: tuple[float, float, float] = setting(doc=_ROT)
+    rotation_sigma_deg: tuple[float, float, float] | None = setting(
+        None, min=0.0, max=10.0, doc="standard errors of rx, ry, rz (deg), from `mast-stereo calibrate`")
+    focal_sigma_px: float | None = setting(
+        None, min=0.0, doc="standard error of the focal length (px), from `mast-stereo calibrate`")
 
 
 @dataclass(frozen=True)
@@ -107,7 +127,31 @@ def site_from_dict(data: Any, file: str | Path | None, key: str = "site") -> Sit
 
 
 def _site(s: SiteSchema) -> Site:
-    return Site(lat_deg=s.lat_deg, lon_deg=s.lon_deg, height_m=s.height_m, heading_deg=s.heading_deg % 360.0)
+    return Site(lat_deg=s.lat_deg, lon_deg=s.lon_deg, height_m=s.height_m, heading_deg=s.heading_deg % 360.0,
+                tilt_sigma_deg=s.tilt_sigma_deg)
+
+
+def _rig_sigma(cameras: _Cameras, file: Any, prefix: str) -> RigSigma | None:
+    """The cameras' standard errors: both keys on both cameras, or on neither (an older file)."""
+    given = {side: (getattr(cameras, side).rotation_sigma_deg, getattr(cameras, side).focal_sigma_px)
+             for side in ("left", "right")}
+    for side, (rot, foc) in given.items():
+        if (rot is None) != (foc is None):
+            missing = "focal_sigma_px" if foc is None else "rotation_sigma_deg"
+            raise ConfigError(file, f"{prefix}cameras.{side}.{missing}",
+                              "rotation_sigma_deg and focal_sigma_px together (the fit's standard errors), "
+                              "or neither", "only the other one")
+    if (given["left"][0] is None) != (given["right"][0] is None):
+        side = "right" if given["right"][0] is None else "left"
+        raise ConfigError(file, f"{prefix}cameras.{side}.rotation_sigma_deg",
+                          "standard errors on both cameras or on neither", "them on the other camera only")
+    if given["left"][0] is None:
+        return None
+    out = {}
+    for side, (rot, foc) in given.items():
+        assert rot is not None and foc is not None
+        out[side] = CameraSigma((float(rot[0]), float(rot[1]), float(rot[2])), float(foc))
+    return RigSigma(out["left"], out["right"])
 
 
 def _camera(spec: _Pinhole | _Poly10, image: _Image, file: Any, key: str) -> CameraModel:
@@ -159,7 +203,8 @@ def calibration_from_dict(data: Any, file: str | Path | None, key_prefix: str = 
     left = _camera(spec.cameras.left, spec.image, file, f"{prefix}cameras.left")
     right = _camera(spec.cameras.right, spec.image, file, f"{prefix}cameras.right")
     rig = StereoRig(spec.baseline_m, spec.image.width, spec.image.height, left, right)
-    return Calibration(rig=rig, site=None if spec.site is None else _site(spec.site))
+    return Calibration(rig=rig, site=None if spec.site is None else _site(spec.site),
+                       sigma=_rig_sigma(spec.cameras, file, prefix))
 
 
 def resolve_path(file: str | Path | None, path: str) -> Path:
@@ -197,12 +242,15 @@ def load_calibration(path: str | Path) -> Calibration:
 
 
 def site_to_dict(site: Site) -> dict[str, float]:
-    return {
+    out = {
         "lat_deg": float(site.lat_deg),
         "lon_deg": float(site.lon_deg),
         "height_m": float(site.height_m),
         "heading_deg": float(site.heading_deg),
     }
+    if site.tilt_sigma_deg is not None:
+        out["tilt_sigma_deg"] = float(site.tilt_sigma_deg)
+    return out
 
 
 def calibration_to_dict(cal: Calibration) -> dict[str, Any]:
@@ -213,6 +261,11 @@ def calibration_to_dict(cal: Calibration) -> dict[str, Any]:
         "image": {"width": int(rig.width), "height": int(rig.height)},
         "cameras": {"left": _plain(rig.left.to_dict()), "right": _plain(rig.right.to_dict())},
     }
+    if cal.sigma is not None:
+        for side in ("left", "right"):
+            cam: CameraSigma = getattr(cal.sigma, side)
+            out["cameras"][side]["rotation_sigma_deg"] = [float(a) for a in cam.rotation_sigma_deg]
+            out["cameras"][side]["focal_sigma_px"] = float(cam.focal_sigma_px)
     if cal.site is not None:
         out["site"] = site_to_dict(cal.site)
     return out
@@ -232,5 +285,5 @@ def recording_calibration(root: str | Path, meta: dict) -> Calibration:
         raise ConfigError(meta_file, "calibration", "the recording's calibration mapping")
     cal = calibration_from_dict(meta["calibration"], meta_file, "calibration")
     if meta.get("site") is not None:
-        cal = Calibration(cal.rig, site_from_dict(meta["site"], meta_file, "site"))
+        cal = Calibration(cal.rig, site_from_dict(meta["site"], meta_file, "site"), cal.sigma)
     return cal

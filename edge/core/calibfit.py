@@ -73,6 +73,7 @@ from edge.core.calibmodel import (
     initial_guess,
     reprojection,
 )
+from edge.core.calibsigma import CameraSigma, RigSigma
 from edge.core.camera import CameraModel, StereoRig, rotation_matrix
 
 MIN_SPREAD_RATIO = 0.05  # weaker / stronger RMS spread of the landmark directions
@@ -324,6 +325,24 @@ def fit_rig(
         n_obs,
         n_par,
     )
+
+
+def camera_sigma(fit: CameraFit) -> CameraSigma:
+    """The standard errors the calibration file carries for one camera: its three angles (deg) and
+    its focal length (px: pinhole fx; poly10 f = 1 / a0, so sigma_f = sigma_a0 / a0^2)."""
+    est = {e.name: e for e in fit.estimates}
+    if "fx" in est:
+        focal_sigma = est["fx"].std_error
+    else:
+        a0 = est["a0"]
+        focal_sigma = a0.std_error / a0.value**2
+    angles = (est["rx_deg"].std_error, est["ry_deg"].std_error, est["rz_deg"].std_error)
+    return CameraSigma(angles, float(focal_sigma))
+
+
+def rig_sigma(fit: RigFit) -> RigSigma:
+    """Both cameras' `camera_sigma`: what `mast-stereo calibrate` writes into the calibration file."""
+    return RigSigma(camera_sigma(fit.left), camera_sigma(fit.right))
 
 
 def relative_rotation_deg(rig: StereoRig) -> np.ndarray:

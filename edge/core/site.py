@@ -16,3 +16,4 @@ class Site:
     lon_deg: float  # WGS-84 longitude
     height_m: float  # above mean sea level
     heading_deg: float  # true azimuth of the world +Z axis
+    tilt_sigma_deg: float | None = None  # 1-sigma bound on the mast's lean per horizontal axis (None: none)

@@ -45,6 +45,8 @@ class Ship:
     bridge_a_m: float  # bridge position along the hull from its centre (bow +)
     t_ns: np.ndarray  # (n,)
     xyz_m: np.ndarray  # (n, 3) truth (bridge) positions
+    bridge_h_m: float = 0.0  # the bridge's height above the waterline (edge.evaluate.sigma's 3-D hull)
+    top_h_m: float = math.nan  # the model's highest part above the waterline (NaN: not known)
 
     def _motion(self, i: int) -> tuple[float, float, float]:
         """(dx, dz, dt) of the truth track over HEADING_SPAN_S around sample i. (The truth point
@@ -107,6 +109,7 @@ class Matched:
     bearing_outside_deg: float = 0.0  # degrees the fix's bearing lies outside the hull's angular extent
     sog_kn: float | None = None  # the fix's speed (None: withheld)
     truth_sog_kn: float = math.nan
+    y_m: float = math.nan  # the fix's world Y (down), for the 3-D hull error
 
 
 @dataclass
@@ -172,7 +175,8 @@ def evaluate(fixes_by_t: dict[int, list[ShipFix]], ships: list[Ship], focal_px: 
             ev.matched.append(Matched(
                 t_ns, s.ship_id, f.track_id, rng, math.hypot(f.x_m, f.z_m) - rng,
                 _wrap(b_fix - _bearing_deg(x, z)), s.outside_hull_m(i, f.x_m, f.z_m),
-                f.sigma_m, f.x_m, f.z_m, max(0.0, lo - b_fix, b_fix - hi), f.sog_kn, s.speed_kn_at(i)))
+                f.sigma_m, f.x_m, f.z_m, max(0.0, lo - b_fix, b_fix - hi), f.sog_kn, s.speed_kn_at(i),
+                y_m=f.y_m))
             ev.first_t_ns.setdefault(s.ship_id, t_ns)
             if not tracks_of[s.ship_id] or tracks_of[s.ship_id][-1] != f.track_id:
                 tracks_of[s.ship_id].append(f.track_id)

@@ -10,7 +10,9 @@ and 2 deg) against the bridge (truth.csv), the detection rate (pairs where a shi
 >= 20 px has a T fix), and the IMO share against the hull outline instead ("IMO hull": how
 often the point of the ship a fix measures is measured to IMO accuracy); then per
 ship the id switches and the time from covering 20 px to the first T fix, false fixes, and
-how the reported 1-sigma holds (fixes more than 3 sigma outside the hull outline).
+how the reported 1-sigma holds (fixes more than 3 sigma outside the hull outline); then
+ruling 1's calibration criterion against ruling 4's 3-D hull error and IMO against the hull as
+the pass/fail column (edge/evaluate/sigma.py).
 
 With --stages (the default for akashi-crossing) it also runs the thesis's stages side by
 side on the same pairs: whole-pixel matching, sub-pixel parabola (eq. 5.2), Butterworth
@@ -36,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 import edge.evaluate.metrics as em
+import edge.evaluate.sigma as es
 from edge.config.app import PipelineConfig
 from edge.config.calibration import recording_calibration
 from edge.core.triangulation import range_error
@@ -57,10 +60,13 @@ def load_ships(root: Path, meta: dict) -> list[em.Ship]:
         if sid not in truth:
             continue
         kind, length = info.get("kind"), float(info.get("length_m", 0.0))
-        bridge_a = float(ShipModel.build(kind, length).tracked_local[0]) if kind in KINDS else 0.0
+        model = ShipModel.build(kind, length) if kind in KINDS else None
+        bridge_a = float(model.tracked_local[0]) if model is not None else 0.0
         rows = truth[sid]
         ships.append(em.Ship(sid, length, float(info.get("beam_m", length / 6)), bridge_a,
-                             rows[:, 0].astype(np.int64), rows[:, 1:4]))
+                             rows[:, 0].astype(np.int64), rows[:, 1:4],
+                             **({} if model is None else {"bridge_h_m": float(model.tracked_local[2]),
+                                                          "top_h_m": float(model.extent_local[1, 2])})))
     return ships
 
 
@@ -198,9 +204,11 @@ def evaluate_recording(root: Path, stages: bool | None, plot_dir: Path | None,
                   f"error RMS {fmt(sp['rms_kn'])} kn, max {fmt(sp['max_kn'])} kn")
     sig = em.sigma_check(ev)
     print(f"false T fixes {len(ev.false_fixes)}; 3-sigma check: {sig}")
+    calibration = es.sigma_rows(ev, ships, es.model_hulls(meta) if ev.matched else None)
+    print("\n".join(es.format_sigma(calibration)))
     summary = {"recording": str(root), "scenario": name, "counters": vars(product.counters), "bins": rows,
                "id_switches": ev.id_switches, "first_t_s": delays, "false_fixes": len(ev.false_fixes),
-               "sigma": sig}
+               "sigma": sig, "sigma_criterion": calibration}
     if stages and ships:
         main = max(ships, key=lambda s: sum(m.ship_id == s.ship_id for m in ev.matched)).ship_id
         env = stage_envelopes(results, main, f, product.rig.baseline_m)

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from edge.core.calibsigma import Pointing
 from edge.core.geo import height_above_sea_m
 from edge.core.linefit import median
 from edge.core.match import Match
@@ -58,7 +59,7 @@ MIN_OVERLAP = 0.2  # association gate (`boxes.overlaps`), or the track's point i
 BIRTH_SLOPE_SHARE = 0.6  # a candidate whose disparity grows this fast down its rows is sea: no birth
 VERTICAL_SHARE = 0.25  # a ship's disparity changes by less than this share of the sea's per row
 SLOPE_ROWS = 4  # rows above and below the point for that test
-ROW_SIGMA_PX = 0.5  # row uncertainty of the point for its height above the sea
+ROW_SIGMA_PX = 0.5  # row uncertainty (height above the sea) when the calibration gives no standard errors
 SEARCH_CANDIDATES = 6  # points offered to a track that lost its point on the ship
 WINDOW_VOTES = 3  # detection passes in a row that must call for another window before it changes
 GLINT_SPARE = 4  # extra candidates ranked, so those with glints can go last
@@ -125,6 +126,7 @@ class TrackTable:
         self.ps = point_settings
         self.s = settings
         self.designs = Designs(point_settings)
+        self.pointing: Pointing | None = None  # the calibration's standard errors (Pipeline sets it)
         self.tracks: list[Track] = []
         self.next_id = 1
         self.births = 0
@@ -383,15 +385,29 @@ class TrackTable:
     def height_m(self, p: TrackPoint) -> tuple[float, float]:
         """The point's height above the sea and its 1-sigma, m. The height comes from the
         triangulated point (eq. 4.1) against the curved sea below it; its 1-sigma is the range
-        error's share plus ROW_SIGMA_PX of the row."""
+        error's share (the filter's disparity sigma and the calibration's, `calibration_sigmas_px`)
+        plus the row's."""
         f, b = self.rect.f_px, self.rect.rig.baseline_m
         assert p.disparity is not None  # asked only of a point with a filtered disparity
         xy_left = self.rect.rect_to_normalised(np.array([p.u, p.v]))
         point = triangulate_normalised(xy_left, xy_left - np.array([p.disparity / f, 0.0]), b)  # eq. 4.1
         height = float(height_above_sea_m(point, self.site_height_m))
         y, z = float(xy_left[1]), float(point[2])
-        sigma_z = z * z * p.sigma_px / (f * b)
-        return height, math.hypot(abs(y) * sigma_z, z * ROW_SIGMA_PX / f)
+        row_px, _, disp_px = self.calibration_sigmas_px(float(xy_left[0]), y, p.disparity)
+        sigma_z = z * z * math.hypot(p.sigma_px, disp_px) / (f * b)
+        return height, math.hypot(abs(y) * sigma_z, z * row_px / f)
+
+    def calibration_sigmas_px(self, x: float, y: float, disparity_px: float) -> tuple[float, float, float]:
+        """(row, column, disparity) 1-sigma in px that the calibration leaves at normalised (x, y)
+        (edge.core.calibsigma, eq. C.1/C.2). Ruling 7 of issue 16: the row's comes from the
+        calibration's standard errors and the site's tilt bound; a calibration without standard
+        errors keeps ROW_SIGMA_PX (it stands for unknown pitch and mast tilt), with the tilt bound
+        added if one is given."""
+        pt = self.pointing
+        if pt is None:
+            return ROW_SIGMA_PX, 0.0, 0.0
+        row, col, disp = (float(a) for a in pt.sigmas(np.array(x), np.array(y), np.array(disparity_px)))
+        return (row if pt.known else math.hypot(ROW_SIGMA_PX, row)), col, disp
 
     def _sea_range(self, u: float, v: float) -> float:
         return sea_range_at(self.rect, self.site_height_m, u, v)

@@ -1,0 +1,61 @@
+"""edge.evaluate.sigma: ruling 1's criterion on known answers, ruling 4's hull distance in 3-D."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import edge.evaluate.sigma as es
+from edge.evaluate.metrics import Ship
+from edge.sim.ships import DRAFT_M, box
+
+
+def test_criterion_known_answers() -> None:
+    sigma = np.full(100, 10.0)
+    honest = np.concatenate([np.full(96, 10.0), np.full(4, 40.0)])  # 96 % within 3 sigma
+    r = es.criterion(honest, sigma)
+    assert r["share_within_3sigma"] == pytest.approx(0.96)
+    assert r["rms_e_over_sigma"] == pytest.approx(math.sqrt((96 * 1 + 4 * 16) / 100))  # 1.265
+    assert r["verdict"] == "PASS"
+    assert es.criterion(np.concatenate([np.full(94, 10.0), np.full(6, 31.0)]), sigma)["verdict"] == "FAIL"
+    too_big = es.criterion(np.full(100, 5.0), sigma)  # sigma twice the error: RMS 0.5
+    assert too_big["rms_e_over_sigma"] == pytest.approx(0.5) and too_big["verdict"] == "FAIL"
+    assert es.criterion(np.full(100, 6.0), sigma)["verdict"] == "PASS"  # 0.6: the edge, inside
+    assert es.criterion(np.full(100, 16.0), sigma)["verdict"] == "FAIL"  # 1.6: too small a sigma
+    assert es.criterion(np.array([]), np.array([]))["verdict"] == "-"
+
+
+def test_box_distance_inside_and_outside() -> None:
+    size = np.array([10.0, 4.0, 6.0])
+    assert es.box_distance_m(np.array([5.0, 1.0, 3.0]), size) == pytest.approx(1.0)  # nearest face b = 0
+    assert es.box_distance_m(np.array([13.0, 2.0, 3.0]), size) == pytest.approx(3.0)
+    assert es.box_distance_m(np.array([13.0, 8.0, 3.0]), size) == pytest.approx(5.0)  # an edge: 3-4-5
+
+
+@settings(max_examples=20, deadline=None)
+@given(p=st.lists(st.floats(-20, 30), min_size=3, max_size=3))
+def test_polyhedron_distance_of_a_box_matches_the_box_formula(p: list) -> None:
+    planes = box(0.0, 10.0, 0.0, 4.0, 0.0, 6.0)
+    point = np.array(p)
+    got = es.polyhedron_distance_m(point[None], planes, iterations=120)[0]
+    want = es.box_distance_m(point, np.array([10.0, 4.0, 6.0]))
+    inside = bool(np.all((point >= 0) & (point <= (10, 4, 6))))
+    assert got == pytest.approx(-want if inside else want, abs=1e-3)
+
+
+def test_hull_error_of_a_bounding_box_ship() -> None:
+    # a 100 m x 20 m ship heading +Z (north of the rig), bridge 10 m above the waterline, 20 m top
+    t = np.arange(0, 10) * 10**9
+    xyz = np.column_stack([np.zeros(10), -10.0 + np.zeros(10), 1000.0 + 5.0 * np.arange(10)])
+    ship = Ship(1, 100.0, 20.0, 0.0, t, xyz, bridge_h_m=10.0, top_h_m=20.0)
+    # 5 m in front of the bow at bridge height: 5 m; inside on the centreline: the side, 10 m
+    assert es.hull_error_m(ship, 5, 0.0, -10.0, 1025.0 + 50.0 + 5.0) == pytest.approx(5.0)
+    assert es.hull_error_m(ship, 5, 0.0, -10.0, 1025.0) == pytest.approx(10.0)
+    # 3 m above the highest part
+    assert es.hull_error_m(ship, 5, 9.0, -23.0, 1025.0) == pytest.approx(3.0)
+    # below the keel at DRAFT_M under the waterline
+    assert es.hull_error_m(ship, 5, 9.0, 0.0 + DRAFT_M + 2.0, 1025.0) == pytest.approx(2.0)
