@@ -133,6 +133,14 @@ class PipelineConfig:
     butterworth_cutoff_hz: float = setting(0.5, positive=True, doc="cut-off of the Butterworth filter")
     gate_sigma: float = setting(3.0, positive=True, doc="innovation gate of the Kalman filter, sigmas")
     coast_s: float = setting(3.0, min=0.0, max=600.0, doc="a track unseen this long turns lost (L)")
+    max_sog_sigma_kn: float = setting(
+        0.75, positive=True, max=50.0,
+        doc="SOG is reported once the ground-plane filter's 1-sigma is at most this, knots (0.75: table 3's "
+        "1-min 1.5 kn at 95 %)")
+    max_cog_sigma_deg: float = setting(
+        5.5, positive=True, max=180.0,
+        doc="COG is reported once its 1-sigma is at most this (and SOG's meets its bound), degrees (5.5: "
+        "table 3's 1-min 11 deg at 95 %)")
 
 
 # ---------------------------------------------------------------- outputs
