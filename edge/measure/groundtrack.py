@@ -39,7 +39,7 @@ import numpy as np
 
 from edge.core.geo import KNOT_MPS
 
-QUIET_Q = 2e-4  # m^2/s^3: a ship holding course and speed (swell, helm: ~1 cm/s drift a minute)
+QUIET_Q = 2e-4  # m^2/s^3: a ship holding course and speed (helm, swell: velocity wanders ~11 cm/s a minute)
 MANOEUVRE_Q = 0.1  # m^2/s^3: a ship turning or changing speed (0.3 m/s^2 for ~10 s)
 QUIET_STAY_S = 1200.0  # mean time in the quiet mode before a manoeuvre (the Markov chain's)
 MANOEUVRE_STAY_S = 10.0  # mean time in the manoeuvre mode
