@@ -40,3 +40,5 @@ class ShipFix:
     age_s: float = 0.0  # time since the track was born
     confidence: float | None = None  # 0..1: share of the last 10 s of pairs the track was measured in
     length_m: float | None = None  # apparent ship length estimate
+    sog_sigma_kn: float | None = None  # 1-sigma of sog_kn (None with it)
+    cog_sigma_deg: float | None = None  # 1-sigma of cog_deg (None with it)

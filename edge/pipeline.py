@@ -4,7 +4,8 @@
     -> TrackTable: associate, birth/confirm/coast/drop  edge.measure.tracks
     -> per track: left point, right match, filter       edge.measure.point
     -> triangulate (eq. 4.1) and error (eq. 4.5)        edge.core.triangulation
-    -> range, bearing, lat/lon, SOG/COG                  edge.core.geo
+    -> range, bearing, lat/lon                          edge.core.geo
+    -> per track, ground-plane motion: SOG/COG          edge.measure.groundtrack
 
 The daemon and `mast-stereo replay` run the same object. It is synchronous
 and deterministic: no clocks, no randomness, no threads, so the same pairs
@@ -13,13 +14,11 @@ an exception deep in a track) is counted and skipped, never raised: the
 daemon must keep running. Gaps in `t_ns` longer than a frame period are
 counted as skipped pairs and the filters coast through them.
 
-Speed and course come from the filtered rates (Z' = -f B d' / d^2, X' from u'); they are left
-unknown (None: empty in TTM, the "unknown" value on Modbus) until the disparity filter has run
-MOTION_AFTER_S and while the speed's 1-sigma exceeds MAX_SOG_SIGMA_KN. That sigma comes from the
-range rate's (the Kalman's P_vv) and the image motion's (the column line's slope error); a small
-far ship's rate is known to tens of knots only, a few follows after the point moved on the hull
-give the image motion no better, and a ghost speed misleads a VTS operator more than an empty
-field. The Butterworth filter gives no rate sigma, so with it the speed stays unknown.
+Speed and course come from each track's ground-plane filter (`edge.measure.groundtrack`: an IMM of
+two constant-velocity Kalman filters on east/north, fed each pair's own triangulated position with
+its anisotropic covariance). They are left unknown (None: empty in TTM, the "unknown" value on
+Modbus) while their 1-sigma exceeds the configured bounds (`pipeline.max_sog_sigma_kn`,
+`pipeline.max_cog_sigma_deg`): a ghost speed misleads a VTS operator more than an empty field.
 """
 
 from __future__ import annotations
@@ -35,22 +34,19 @@ from drivers.camera.base import FramePair
 from edge.config.app import PipelineConfig
 from edge.config.calibration import Calibration
 from edge.core.calibsigma import Pointing
-from edge.core.geo import KNOT_MPS, range_bearing, speed_course, world_to_latlon
+from edge.core.geo import enu_to_world, range_bearing, speed_course, world_to_enu, world_to_latlon
 from edge.core.rectify import Rectifier
-from edge.core.shipmotion import world_velocity, world_velocity_sigma
 from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
 from edge.fix import ShipFix, TrackStatus
 from edge.measure.detect import Detector
+from edge.measure.groundtrack import GroundSettings, GroundTracks, PairFix, column_noise_px, pair_fix
 from edge.measure.settings import FILTERS, SUBPIXELS, PointSettings
 from edge.measure.tracks import TableSettings, Track, TrackTable
 
 log = logging.getLogger(__name__)
 
-MOTION_AFTER_S = 2.0  # SOG/COG are reported once the disparity filter has run this long
-MAX_SOG_SIGMA_KN = 5.0  # ... and while the speed is known to this (1-sigma)
 MAX_DETECT_INTERVAL_S = 0.5  # slow cameras detect more often than every k-th pair (1 fps: every pair)
-MIN_COURSE_KN = 0.5  # below this speed the course is unknown (None)
 
 
 @dataclass
@@ -97,6 +93,8 @@ class Pipeline:
                                  calibration.sigma,
                                  site.tilt_sigma_deg or 0.0)
         self.table.pointing = self.pointing
+        self.ground = GroundTracks(GroundSettings(max_sog_sigma_kn=cfg.max_sog_sigma_kn,
+                                                  max_cog_sigma_deg=cfg.max_cog_sigma_deg))
         self.counters = Counters()
         self._last_t_ns: int | None = None
         self._since_detect = cfg.detect_every - 1  # detect on the first pair
@@ -173,6 +171,7 @@ class Pipeline:
         live = [t for t in tracks if t.point.disparity is not None and t.point.disparity > 0.0
                 and (t.point.usable or t.point.scatter_px() is None)]
         if not live:
+            self._ground_step(tracks, t_ns)
             return []
         f, b = self.rect.f_px, self.rig.baseline_m
         use_filtered_u = self.point_settings.filter == "kalman"
@@ -188,34 +187,31 @@ class Pipeline:
         sigma_d = np.array([math.hypot(t.point.sigma_px, t.point.alias_sigma_px) for t in live])
         sigma_m = self._sigma_m(world, xy_l, d, sigma_d, range_m)
         lat, lon, _ = world_to_latlon(world, self.site)
-        d_rate = np.array([t.point.rate_pxps for t in live])
-        u_rate = np.array([t.point.u_rate_known_pxps for t in live])
-        vx, vz = world_velocity(f, b, u, self.rect.cx, d, d_rate, u_rate)
-        # the speed's 1-sigma from the filters' rate sigmas (inf: not known, as with the Butterworth
-        # filter): a far, noisy track's speed, or the image motion's right after a jump, would be
-        # read as tens of knots; withheld instead, as TTM/Modbus allow
-        d_rate_sd = np.array([t.point.rate_sigma_pxps for t in live])
-        u_rate_sd = np.array([t.point.u_rate_sigma_pxps for t in live])
-        sog_sigma_kn = world_velocity_sigma(f, b, u, self.rect.cx, d, d_rate_sd, u_rate_sd) / KNOT_MPS
-        sog, cog = speed_course(np.stack([vx, np.zeros_like(vx), vz], -1), lat, lon, self.site)
+        self._ground_step(tracks, t_ns)
+        motions = [self.ground.motion(t.id) for t in live]
+        v_en = np.array([[0.0, 0.0] if m is None else m.velocity_en_mps.tolist() for m in motions])
+        v_world = enu_to_world(np.concatenate([v_en, np.zeros((len(live), 1))], axis=1),
+                               self.site.heading_deg)
+        sog, cog = speed_course(v_world, lat, lon, self.site)  # COG against north at the target
         # per-fix values as Python floats in one call per array (the same doubles as float(a[i]), without
         # a numpy scalar per field and fix)
-        rows = zip(live, world.tolist(), *(a.tolist() for a in (range_m, bearing, lat, lon, sog, cog,
-                                                                sog_sigma_kn, sigma_m, d)), strict=True)
-        moving_after = MOTION_AFTER_S * self.fps
-        filtered = self.point_settings.filter != "none"
+        rows = zip(live, motions, world.tolist(), *(a.tolist() for a in (range_m, bearing, lat, lon, sog, cog,
+                                                                          sigma_m, d)), strict=True)
         fixes = []
-        for t, (x_m, y_m, z_m), r_m, brg, la, lo, sog_kn, cog_deg, sog_sd, sig_m, d_px in rows:
-            moving = filtered and t.point.updates >= moving_after and sog_sd <= MAX_SOG_SIGMA_KN
+        for t, mo, (x_m, y_m, z_m), r_m, brg, la, lo, sog_kn, cog_deg, sig_m, d_px in rows:
+            # speed and course from the ground-plane filter, withheld (None: empty in TTM, "unknown"
+            # on Modbus) until their 1-sigma meets the configured bound
+            sog_ok, cog_ok = mo is not None and mo.sog_ok, mo is not None and mo.cog_ok
             x0_rel, _, x1_rel, _ = t.box_rel.tolist()  # t.box's columns, the same sums in Python floats
             u_px = t.point.u
             fixes.append(ShipFix(
                 t_ns=t_ns + self.utc_offset_ns, track_id=t.id, status=t.status,
                 x_m=x_m, y_m=y_m, z_m=z_m, range_m=r_m, bearing_deg=brg, lat_deg=la, lon_deg=lo,
-                sog_kn=sog_kn if moving else None,
-                cog_deg=cog_deg if moving and sog_kn >= MIN_COURSE_KN else None,
+                sog_kn=sog_kn if sog_ok else None, cog_deg=cog_deg if cog_ok else None,
                 sigma_m=sig_m, disparity_px=d_px, age_s=t.age_s(t_ns), confidence=t.confidence,
-                length_m=((x1_rel + u_px) - (x0_rel + u_px)) * z_m / f))
+                length_m=((x1_rel + u_px) - (x0_rel + u_px)) * z_m / f,
+                sog_sigma_kn=mo.sog_sigma_kn if mo is not None and sog_ok else None,
+                cog_sigma_deg=mo.cog_sigma_deg if mo is not None and cog_ok else None))
         return fixes
 
     def _sigma_m(self, world: np.ndarray, xy_l: np.ndarray, d: np.ndarray, sigma_d: np.ndarray,
@@ -231,6 +227,30 @@ class Pipeline:
         along = np.hypot(err[..., 0], err[..., 2])
         sigma_m = np.hypot(along, range_m * col_px / f)
         return np.where(np.isfinite(err).all(axis=-1), sigma_m, math.inf)
+
+    def _ground_step(self, tracks: list[Track], t_ns: int) -> None:
+        """Each track's own measurement of this pair into its ground-plane filter
+        (edge.measure.groundtrack): the raw disparity the disparity filter accepted and the column the
+        point tracker followed (not the filters' outputs, whose errors are correlated in time)."""
+        f, b = self.rect.f_px, self.rig.baseline_m
+        fixes: dict[int, tuple[PairFix | None, bool, int]] = {}
+        measured = [t for t in tracks if t.point.accepted and t.point.raw_disparity is not None
+                    and t.point.raw_disparity > 0.0 and (t.point.followed or t.point.jumped != (0.0, 0.0))]
+        if measured:
+            uv = np.array([[t.point.u, t.point.v] for t in measured])
+            raw = np.array([t.point.raw_disparity for t in measured])
+            xy_l = self.rect.rect_to_normalised(uv)
+            xy_r = xy_l - np.stack([raw / f, np.zeros_like(raw)], -1)
+            world = triangulate_normalised(xy_l, xy_r, b)  # eq. 4.1
+            enu = world_to_enu(world, self.site.heading_deg)
+            for t, (east, north, _) in zip(measured, enu.tolist(), strict=True):
+                p = t.point
+                sigma_d = p.scatter_px() or p.noise_px
+                fixes[t.id] = (pair_fix(east, north, sigma_d, column_noise_px(list(p.columns)), f, b),
+                               p.jumped != (0.0, 0.0), p.updates)
+        for t in tracks:
+            fixes.setdefault(t.id, (None, False, t.point.updates))
+        self.ground.step(t_ns / 1e9, fixes)
 
     def _log_once(self, key: str, msg: str, *args: object) -> None:
         if key not in self._logged:

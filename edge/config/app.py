@@ -137,6 +137,14 @@ class PipelineConfig:
         False, doc="for cameras without an anti-aliasing filter (sharp optics): cross-check every match "
         "with a smaller window and widen the fix's sigma by their disagreement (one more match per track)"
     )
+    max_sog_sigma_kn: float = setting(
+        0.75, positive=True, max=50.0,
+        doc="SOG is reported once the ground-plane filter's 1-sigma is at most this, knots (0.75: table 3's "
+        "1-min 1.5 kn at 95 %)")
+    max_cog_sigma_deg: float = setting(
+        5.5, positive=True, max=180.0,
+        doc="COG is reported once its 1-sigma is at most this (and SOG's meets its bound), degrees (5.5: "
+        "table 3's 1-min 11 deg at 95 %)")
 
 
 # ---------------------------------------------------------------- outputs

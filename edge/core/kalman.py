@@ -219,14 +219,6 @@ class _CVFilter(ABC):
         c = self._coast_var_q36(len(self.design.cov_q36) - 1)
         return bisect_left(self.design.pred_env_q36, -c, key=lambda x: -x)
 
-    def rate_sigma_pxps(self) -> float:
-        """Predicted 1-sigma of the filtered rate d' (px/s): P_vv after the last update plus the
-        white acceleration q of each coasted prediction (the model's F, Q), times the coverage
-        factor (eq. K.3). The speed a fix reports rests on it."""
-        d = self.design
-        pvv = d.cov[min(self.k, len(d.cov) - 1)][2] + self.misses * (d.sigma_accel_pxps2 / d.fs_hz**2) ** 2
-        return d.coverage * _sqrt(pvv) * d.fs_hz
-
     def sigma_px(self) -> float:
         """Predicted 1-sigma of the current estimate (grows while coasting, eq. K.6)."""
         d = self.design

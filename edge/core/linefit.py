@@ -1,13 +1,11 @@
-"""Median and least-squares line of the few values a track keeps, and the fitted slope's error.
+"""Median and least-squares line of the few values a track keeps.
 
 In plain Python on purpose: np.median and np.polyfit cost 20-40 us a call, more than the work
-itself on a handful of values. `slope_sigma` is the fitted slope's standard error, which says how
-far the image motion (and the lateral speed from it) can be trusted.
+itself on a handful of values.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Sequence
 
 
@@ -29,17 +27,3 @@ def line_fit(points: Sequence[tuple[float, float]]) -> tuple[float, float]:
     den = n * stt - st * st
     slope = (n * sty - st * sy) / den if den else 0.0
     return (sy - slope * st) / n, slope
-
-
-def slope_sigma(points: Sequence[tuple[float, float]], intercept: float, slope: float, floor: float) -> float:
-    """Standard error of a fitted line's slope (per unit t): the residual scatter, at least `floor`,
-    over sqrt(sum (t - mean t)^2); infinite for fewer than three points."""
-    n = len(points)
-    if n < 3:
-        return math.inf
-    t_last = points[-1][0]
-    t_mean = sum(p[0] for p in points) / n
-    stt = sum((p[0] - t_mean) ** 2 for p in points)
-    ss = sum((p[1] - intercept - slope * (p[0] - t_last)) ** 2 for p in points)
-    scatter2 = max(ss / (n - 2), floor * floor)
-    return math.sqrt(scatter2 / stt) if stt > 0 else math.inf

@@ -1,5 +1,4 @@
-"""How fast a ship can move in the image: bounds on its disparity's change, and its world velocity
-from the image-space rates.
+"""How fast a ship can move in the image: bounds on its disparity's change.
 
 The bound. A ship at depth Z (disparity
 d = f L_B / Z) moving at speed <= v with acceleration <= a (speed change or turn) has
@@ -16,14 +15,10 @@ and shared, and the ladder stops at 1/16: the matcher's error on a ship is not w
 the window's texture as the ship's pose changes, over seconds), so deeper designs average it into
 a persistent offset instead (docs/decisions.md).
 
-The velocity. With Z = f L_B / d and X = L_B (u - cx) / d - L_B / 2 (eq. 4.1 in rectified
-pixels), Z' = -f L_B d' / d^2 and X' = L_B u' / d - L_B (u - cx) d' / d^2; their 1-sigma follow
-from the rates' sigmas to first order.
+(Speed and course come from the ground-plane filter, edge.measure.groundtrack, not from these rates.)
 """
 
 from __future__ import annotations
-
-import numpy as np
 
 MAX_SHIP_SPEED_MPS = 25.0  # ~50 kn: no ship's range changes faster
 MAX_SHIP_ACCEL_MPS2 = 0.5  # speed change or turn (12 kn on a 120 m radius is 0.32 m/s^2)
@@ -49,22 +44,3 @@ def accel_rung(disparity_px: float, fb_px_m: float, top_pxps2: float) -> float:
             break
         rung /= 2.0
     return rung
-
-
-def world_velocity(f_px: float, baseline_m: float, u_px: np.ndarray, cx_px: float, d_px: np.ndarray,
-                   d_rate_pxps: np.ndarray, u_rate_pxps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(X', Z') in m/s of points at rectified column u and disparity d from their rates d' and u'."""
-    vz = -f_px * baseline_m * d_rate_pxps / d_px**2
-    vx = baseline_m * u_rate_pxps / d_px - baseline_m * (u_px - cx_px) * d_rate_pxps / d_px**2
-    return vx, vz
-
-
-def world_velocity_sigma(f_px: float, baseline_m: float, u_px: np.ndarray, cx_px: float, d_px: np.ndarray,
-                         d_rate_sd_pxps: np.ndarray, u_rate_sd_pxps: np.ndarray) -> np.ndarray:
-    """1-sigma of the horizontal speed (m/s) from the rates' sigmas (inf where a rate is unknown;
-    nan for inf x 0 on the optical axis, which is not below any bound)."""
-    with np.errstate(invalid="ignore"):
-        vz_sd = f_px * baseline_m * d_rate_sd_pxps / d_px**2
-        vx_sd = np.hypot(baseline_m * u_rate_sd_pxps / d_px,
-                         baseline_m * (u_px - cx_px) * d_rate_sd_pxps / d_px**2)
-        return np.hypot(vx_sd, vz_sd)

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 import edge.evaluate.metrics as em
+import edge.evaluate.motion as evaluate_motion
 import edge.evaluate.sigma as es
 from edge.config.app import PipelineConfig
 from edge.config.calibration import recording_calibration
@@ -208,7 +209,8 @@ def evaluate_recording(root: Path, stages: bool | None, plot_dir: Path | None,
     print("\n".join(es.format_sigma(calibration)))
     summary = {"recording": str(root), "scenario": name, "counters": vars(product.counters), "bins": rows,
                "id_switches": ev.id_switches, "first_t_s": delays, "false_fixes": len(ev.false_fixes),
-               "sigma": sig, "sigma_criterion": calibration}
+               "sigma": sig, "sigma_criterion": calibration,
+               "motion": motion_table(fixes["product"], ev, meta, product)}
     if stages and ships:
         main = max(ships, key=lambda s: sum(m.ship_id == s.ship_id for m in ev.matched)).ship_id
         env = stage_envelopes(results, main, f, product.rig.baseline_m)
@@ -225,6 +227,13 @@ def evaluate_recording(root: Path, stages: bool | None, plot_dir: Path | None,
         if plot_dir is not None:
             plots(plot_dir, name, results, ships, main, f, product.rig.baseline_m)
     return summary
+
+
+def motion_table(fixes: dict[int, list], ev: em.Evaluation, meta: dict, product: Pipeline) -> list[dict]:
+    """SOG/COG after 1 and 3 min of steady state against table 3 (edge.evaluate.motion), printed."""
+    rows = evaluate_motion.motion_rows(fixes, ev.matched, meta, product.site)
+    evaluate_motion.print_motion(rows)
+    return rows
 
 
 def diagnose_recording(root: Path, subpixel: str | None = None) -> None:

@@ -231,7 +231,8 @@ def sigma_rows(ev: Evaluation, ships: list[Ship], hulls: ModelHulls | None = Non
     whole["los_fixes"] = int(np.isfinite(los).sum())
     whole["hull"] = criterion(e_hull, sigma)  # information
     if ev.matched:
-        share = float(np.mean([imo_hull_3d_ok(m, float(ek)) for m, ek in zip(ev.matched, e_hull, strict=True)]))
+        share = float(np.mean([imo_hull_3d_ok(m, float(ek))
+                               for m, ek in zip(ev.matched, e_hull, strict=True)]))
         whole.update(imo_hull_share=share, imo_verdict="PASS" if share >= IMO_SHARE else "FAIL")
     return {"all": whole, "bins": bins}
 
@@ -257,7 +258,8 @@ def format_sigma(rows: dict) -> list[str]:
                    f"{_f(None if imo is None else 100 * imo, '.1f'):>7}% {r.get('imo_verdict', ''):>5}")
     hull = rows["all"].get("hull")
     if hull and hull["fixes"]:
-        out.append(f"e along the line of sight for {rows['all']['los_fixes']} of {rows['all']['fixes']} fixes "
+        out.append(f"e along the line of sight for {rows['all']['los_fixes']} of {rows['all']['fixes']} "
+                   f"fixes "
                    f"(the rest: distance to the hull); information, e as the distance to the hull in 3-D: "
                    f"RMS(e/sigma) {hull['rms_e_over_sigma']:.2f}, "
                    f"{100 * hull['share_within_3sigma']:.1f} % within 3 sigma")

@@ -36,7 +36,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from edge.core.linefit import line_fit, median, slope_sigma
+from edge.core.linefit import line_fit, median
 from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.refpoint import PointTrack
@@ -57,8 +57,6 @@ from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 
 COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
-REFIT_COLUMNS = 5  # follows in the column line before its slope is used for the speed
-COLUMN_NOISE_PX = 0.05  # the least scatter a follow's column is credited with (its slope's sigma)
 REJECTS_TO_SEARCH = 5  # valid matches in a row that the filter's gate refuses: the point is on something else
 OCCLUSION_COST_FACTOR = 4.0  # a follow this much worse than the track's typical one: something in front
 OCCLUSION_COST_FLOOR = 20.0  # DN^2 per pixel, so a near-perfect typical match does not trip on noise
@@ -104,10 +102,6 @@ class TrackPoint(PointFilter):
         self.rejects = 0
         self.u_filtered: float | None = None
         self.u_rate_pxps = 0.0
-        # the image motion the speed is computed from: the last line of >= REFIT_COLUMNS follows,
-        # kept while a new point's line is shorter, and its 1-sigma (inf: no such line yet)
-        self.u_rate_known_pxps = 0.0
-        self.u_rate_sigma_pxps = math.inf
         self.follow_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # SSD per pixel of good follows
         self.match_costs: deque[float] = deque(maxlen=NOISE_WINDOW)  # matcher costs of clean matches
         self.columns: deque[tuple[int, float]] = deque(maxlen=max(3, int(round(COLUMN_FIT_S * settings.fps))))
@@ -379,9 +373,8 @@ class TrackPoint(PointFilter):
         return cost > MIXED_COST_FACTOR * typical + MIXED_COST_FLOOR_DN2 * n2
 
     def _fit_column(self) -> None:
-        """Least-squares line through the recent (frame, column) follows: smoothed u and its rate, and
-        once the line has REFIT_COLUMNS follows the rate and its 1-sigma for the speed (three follows
-        a jump landed in can read as tens of knots, and their scatter says little)."""
+        """Least-squares line through the recent (frame, column) follows: smoothed u and its rate (the
+        image motion that predicts the next follow)."""
         self.columns.append((self.frame, self.u))
         n = len(self.columns)
         if n < 3:
@@ -392,6 +385,3 @@ class TrackPoint(PointFilter):
             limit = self.disparity * MAX_SHIP_SPEED_MPS / self.s.baseline_m  # |u'| <= f v / Z = d v / L_B
             rate = min(max(rate, -limit), limit)
         self.u_filtered, self.u_rate_pxps = float(intercept), rate
-        if n >= REFIT_COLUMNS:
-            self.u_rate_known_pxps = rate
-            self.u_rate_sigma_pxps = slope_sigma(self.columns, intercept, slope, COLUMN_NOISE_PX) * self.s.fps

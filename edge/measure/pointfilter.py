@@ -56,7 +56,6 @@ class PointFilter:
         self.butter = ButterworthQ(s.butterworth_cutoff_hz, s.fps) if s.filter == "butterworth" else None
         self.disparity: float | None = None  # filtered
         self.rate_pxps = 0.0  # filtered d'
-        self.rate_sigma_pxps = math.inf  # its 1-sigma (Kalman only; inf: not known)
         self.sigma_px = math.inf
         self.updates = 0  # accepted disparity measurements since the filter (re)started
 
@@ -153,7 +152,6 @@ class PointFilter:
             if z is not None and not self.kalman.running and not self._fits_memory(z):
                 z = None  # a restart must pick up this ship, not whatever the point now sees
             est = self.kalman.update(z)
-            self.rate_sigma_pxps = self.kalman.rate_sigma_pxps() if est.valid else math.inf
             if est.valid and est.accepted:
                 rate = self._plausible_rate(est.disparity_px, est.rate_pxps)
                 self.disparity, self.rate_pxps, self.sigma_px = est.disparity_px, rate, est.sigma_px

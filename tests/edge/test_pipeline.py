@@ -3,6 +3,7 @@ determinism, gaps, bad input and internal faults counted rather than raised."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import cv2
@@ -153,14 +154,25 @@ def test_speed_is_reported_only_when_the_range_rate_is_known(recording) -> None:
     assert all(abs(s - 12.0) < 3.0 for s in with_speed)
 
 
-def test_speed_needs_a_rate_sigma(akashi) -> None:
-    """The Butterworth filter (the thesis's, kept for comparison) gives no rate sigma, so its fixes
-    carry no speed or course; the Kalman's fixes of the same pairs do once it has run 2 s."""
+def test_speed_comes_from_the_ground_track_with_its_sigma(akashi) -> None:
+    """Speed and course come from the ground-plane filter (edge.measure.groundtrack), whatever the
+    disparity filter: the Kalman's and the Butterworth's fixes of the same pairs carry them once their
+    sigma meets the configured bounds, each with its sigma, near the freighter's 12 kn; a bound no
+    filter meets in 3 s withholds them."""
     path, pairs = akashi
     with ReplaySource(path) as src:
         meta = src.meta
     cal = recording_calibration(path, meta)
-    kalman = _run(Pipeline(cal, PipelineConfig(), fps=meta["fps"]), pairs)
-    butterworth = _run(Pipeline(cal, PipelineConfig(), fps=meta["fps"], filter="butterworth"), pairs)
-    assert any(f.sog_kn is not None for f in kalman)
-    assert butterworth and all(f.sog_kn is None and f.cog_deg is None for f in butterworth)
+    cfg = PipelineConfig()
+    for filt in ("kalman", "butterworth"):
+        fixes = _run(Pipeline(cal, cfg, fps=meta["fps"], filter=filt), pairs)
+        moving = [f for f in fixes if f.sog_kn is not None]
+        assert moving, filt
+        for f in moving:
+            assert f.sog_sigma_kn is not None and 0 < f.sog_sigma_kn <= cfg.max_sog_sigma_kn
+            assert abs(f.sog_kn - 12.0) <= 3 * f.sog_sigma_kn + 0.5
+            assert f.cog_deg is None or (f.cog_sigma_deg is not None
+                                         and f.cog_sigma_deg <= cfg.max_cog_sigma_deg)
+    strict = dataclasses.replace(cfg, max_sog_sigma_kn=0.001)
+    withheld = _run(Pipeline(cal, strict, fps=meta["fps"]), pairs)
+    assert withheld and all(f.sog_kn is None and f.cog_deg is None for f in withheld)

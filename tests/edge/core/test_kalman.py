@@ -41,25 +41,6 @@ def test_error_model_matches_simulation(fs: float, sa: float) -> None:
         assert 0.75 < excursions / predicted < 1.25
 
 
-@pytest.mark.parametrize("fs,sa", [(30.0, 0.1), (10.0, 0.5)])
-def test_rate_sigma_matches_simulation(fs: float, sa: float) -> None:
-    """rate_sigma_pxps (what a fix's speed rests on) is the spread of the rate estimate on data
-    that follows the model, and grows while coasting."""
-    design = design_kalman(fs, 0.1, sa, gate_sigma=50.0)
-    rng = np.random.default_rng(12)
-    n = 60_000
-    acc = rng.standard_normal(n) * sa / fs**2
-    v = np.cumsum(acc)
-    d = 20 + np.cumsum(v) - 0.5 * np.cumsum(acc)
-    f = DisparityKalmanFloat(design)
-    rate = np.array([f.update(float(x)).rate_pxps for x in d + 0.1 * rng.standard_normal(n)])
-    e = (rate - v * fs)[2000:]
-    steady = f.rate_sigma_pxps()
-    assert e.std() == pytest.approx(steady, rel=0.05)
-    f.update(None)
-    assert f.rate_sigma_pxps() > steady
-
-
 def test_coverage_factor() -> None:
     plain = design_kalman(30, 0.1, 0.1)
     assert plain.coverage == 1.0

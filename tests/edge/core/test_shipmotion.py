@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -16,8 +15,6 @@ from edge.core.shipmotion import (
     MAX_SHIP_SPEED_MPS,
     accel_rung,
     disparity_accel_bound,
-    world_velocity,
-    world_velocity_sigma,
 )
 
 FB = 2600.0 * 8.14  # the 2048 px rig's f L_B, px m
@@ -64,31 +61,3 @@ def test_rung_grows_with_disparity_and_without_a_rig_scale_is_the_configured_val
     rungs = [accel_rung(d, FB, 0.05) for d in (2.0, 4.0, 8.0, 16.0, 32.0, 64.0)]
     assert rungs == sorted(rungs) and rungs[0] < rungs[-1] == 0.05
     assert accel_rung(4.0, 0.0, 0.05) == 0.05
-
-
-@settings(max_examples=60, deadline=None)
-@given(st.floats(300.0, 5000.0), st.floats(-800.0, 800.0), st.floats(-12.0, 12.0), st.floats(-12.0, 12.0))
-def test_world_velocity_is_the_derivative_of_the_triangulated_track(z_m: float, x_m: float, vx_mps: float,
-                                                                    vz_mps: float) -> None:
-    """A ship moving at (vx, vz): u and d from eq. 4.1's inverse, their rates by central differences;
-    world_velocity gives the velocity back (the rates are first-order exact for a short step)."""
-    f, b, cx = 2600.0, 8.14, 1023.5
-
-    def image(t_s: float) -> tuple[float, float]:
-        x, z = x_m + vx_mps * t_s, z_m + vz_mps * t_s
-        return cx + f * (x + b / 2) / z, f * b / z  # left column, disparity
-
-    h = 1e-3
-    (u0, d0), (u1, d1), (u2, d2) = image(-h), image(0.0), image(h)
-    u_rate, d_rate = (u2 - u0) / (2 * h), (d2 - d0) / (2 * h)
-    vx, vz = world_velocity(f, b, np.array([u1]), cx, np.array([d1]), np.array([d_rate]), np.array([u_rate]))
-    assert vx[0] == pytest.approx(vx_mps, abs=1e-4) and vz[0] == pytest.approx(vz_mps, abs=1e-4)
-
-
-def test_world_velocity_sigma_is_unknown_without_rate_sigmas_and_linear_in_them() -> None:
-    one = np.array([1.0])
-    sd = world_velocity_sigma(2600.0, 8.14, one * 1200.0, 1023.5, one * 5.0, one * 0.01, one * 0.1)
-    assert sd[0] > 0 and world_velocity_sigma(2600.0, 8.14, one * 1200.0, 1023.5, one * 5.0,
-                                              one * 0.02, one * 0.2)[0] == pytest.approx(2 * sd[0])
-    unknown = world_velocity_sigma(2600.0, 8.14, one * 1200.0, 1023.5, one * 5.0, one * math.inf, one)
-    assert not unknown[0] < 1e9

@@ -1,0 +1,329 @@
+"""Target motion in the ground plane: an IMM of two constant-velocity Kalman filters on east/north,
+per track, fed each pair's own triangulated position; SOG, COG and their 1-sigma come from it.
+
+Why here and not from the image-space filters' rates: the disparity Kalman's rate of a far, slow
+ship is known to tens of knots for minutes (a steady 3.4 kn ship at 3 km at 1 fps got no speed in
+four minutes), because its white acceleration must let a near ship manoeuvre. On the ground a
+ship's motion is simple: straight at constant speed for minutes, now and then a turn. And the
+filter must not take the disparity filter's output, whose errors are correlated in time; it takes
+each pair's own measurement (the raw disparity of the pair, the followed column).
+
+Measurement (per pair): the position triangulated from the pair's own disparity (eq. 4.1). Its
+covariance is anisotropic: along the line of sight the range sigma of eq. 4.5 (first order,
+sigma_r = r^2 sigma_d / (f L_B), sigma_d the track's own disparity scatter), across it the
+bearing sigma r sigma_u / f (sigma_u the followed column's scatter). R = G diag(sigma_r^2,
+sigma_b^2) G^T with G the rotation to the line of sight's bearing (`measurement_cov`). The
+matcher's error is not white (it follows the window's texture as the ship's pose changes, over
+seconds: docs/decisions.md); R is inflated by (1 + rho) / (1 - rho), rho = exp(-dt / tau), the
+variance of a long average of first-order correlated errors against white ones, so that the
+filter does not average correlated samples as if they were independent.
+
+Motion models (the IMM, Blom & Bar-Shalom): both constant velocity with white acceleration of
+spectral density q (m^2/s^3, Q = q [[dt^3/3, dt^2/2], [dt^2/2, dt]] per axis), q small for a
+ship holding its course (`QUIET_Q`), large for one turning (`MANOEUVRE_Q`: 0.3 m/s^2 of turn for
+tens of seconds). The mode probabilities follow the innovations; the combined covariance holds the
+spread of the two models, so while a ship turns its sigma says how unsure the filter is.
+
+Outliers: an innovation beyond the chi-square gate (`GATE_NIS`) is not taken; `RESEAT_AFTER` such
+in a row (the point moved to another part of the hull, or the track to another ship's
+neighbourhood) re-seat the position on the measurement, keeping the velocity. A point that moved on
+the hull (`jumped`) or a restarted disparity filter re-seats at once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from edge.core.geo import KNOT_MPS
+
+QUIET_Q = 2e-4  # m^2/s^3: a ship holding course and speed (helm, swell: velocity wanders ~11 cm/s a minute)
+MANOEUVRE_Q = 0.1  # m^2/s^3: a ship turning or changing speed (0.3 m/s^2 for ~10 s)
+QUIET_STAY_S = 1200.0  # mean time in the quiet mode before a manoeuvre (the Markov chain's)
+MANOEUVRE_STAY_S = 10.0  # mean time in the manoeuvre mode
+INIT_SPEED_SIGMA_MPS = 10.0  # the velocity's prior 1-sigma per axis at the first measurement (~20 kn)
+GATE_NIS = 16.0  # chi-square, 2 dof: a measurement beyond is an outlier (p = 3e-4)
+RESEAT_AFTER = 3  # outliers in a row before the position is re-seated on the measurement
+MIN_SPEED_FOR_COURSE_MPS = 0.25  # a course of a slower target is not reported (about 0.5 kn)
+
+
+@dataclass(frozen=True)
+class GroundSettings:
+    """The filter's knobs (the pipeline builds them from its configuration)."""
+
+    quiet_q: float = QUIET_Q
+    manoeuvre_q: float = MANOEUVRE_Q
+    correlation_s: float = 1.0  # time constant of the matcher's correlated error (R inflation)
+    max_sog_sigma_kn: float = 0.75  # SOG reported once its 1-sigma is at most this
+    max_cog_sigma_deg: float = 5.5  # COG reported once its 1-sigma is at most this
+
+
+def measurement_cov(bearing_rad: float, sigma_along_m: float, sigma_across_m: float) -> np.ndarray:
+    """2x2 east/north covariance of a fix: sigma_along on the line of sight at `bearing_rad`
+    (true, from north toward east), sigma_across perpendicular to it."""
+    u = np.array([math.sin(bearing_rad), math.cos(bearing_rad)])  # unit line of sight (east, north)
+    w = np.array([u[1], -u[0]])
+    return sigma_along_m**2 * np.outer(u, u) + sigma_across_m**2 * np.outer(w, w)
+
+
+def _transition(dt_s: float) -> np.ndarray:
+    f = np.eye(4)
+    f[0, 2] = f[1, 3] = dt_s
+    return f
+
+
+def _process(q: float, dt_s: float) -> np.ndarray:
+    """White-acceleration CV process noise for state (e, n, ve, vn)."""
+    a, b, c = q * dt_s**3 / 3.0, q * dt_s**2 / 2.0, q * dt_s
+    return np.array([[a, 0, b, 0], [0, a, 0, b], [b, 0, c, 0], [0, b, 0, c]])
+
+
+H = np.hstack([np.eye(2), np.zeros((2, 2))])
+_EYE4 = np.eye(4)
+
+
+def _quad(s: np.ndarray, y: np.ndarray) -> float:
+    """y^T S^-1 y for a 2x2 S (closed form: this runs per track and pair)."""
+    det = s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]
+    return float((s[1, 1] * y[0] ** 2 - (s[0, 1] + s[1, 0]) * y[0] * y[1] + s[0, 0] * y[1] ** 2) / det)
+
+
+class GroundTrack:
+    """IMM (two CV models) on east/north of one track; `update` once per pair with or without a fix."""
+
+    def __init__(self, settings: GroundSettings | None = None) -> None:
+        self.s = settings or GroundSettings()
+        self.qs = (self.s.quiet_q, self.s.manoeuvre_q)
+        self.t_s: float | None = None
+        self.x = np.zeros((2, 4))  # per model
+        self.p = np.zeros((2, 4, 4))
+        self.mu = np.array([0.5, 0.5])
+        self.started = False
+        self.measurements = 0  # taken since the start
+        self.outliers = 0  # in a row
+        self.since_s = 0.0  # time since the first measurement
+        self.last_nis = math.nan
+
+    # ------------------------------------------------------------ estimate
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Combined (x, P) of the models (the IMM's output)."""
+        x = self.mu @ self.x
+        p = np.zeros((4, 4))
+        for j in range(2):
+            d = self.x[j] - x
+            p += self.mu[j] * (self.p[j] + np.outer(d, d))
+        return x, p
+
+    def velocity(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(east, north) velocity m/s and its 2x2 covariance; None before the first measurement."""
+        if not self.started:
+            return None
+        x, p = self.state()
+        return x[2:], p[2:, 2:]
+
+    def speed_course(self) -> tuple[float, float, float, float] | None:
+        """(speed m/s, its 1-sigma, course rad from north toward east, its 1-sigma rad) to first order;
+        the course's sigma is inf below MIN_SPEED_FOR_COURSE_MPS. None before the first measurement."""
+        vel = self.velocity()
+        if vel is None:
+            return None
+        v, pv = vel
+        speed = float(math.hypot(v[0], v[1]))
+        if speed <= 1e-9:
+            return 0.0, math.sqrt(max(np.trace(pv) / 2.0, 0.0)), 0.0, math.inf
+        u = v / speed
+        w = np.array([u[1], -u[0]])
+        speed_sd = math.sqrt(max(float(u @ pv @ u), 0.0))
+        course_sd = math.sqrt(max(float(w @ pv @ w), 0.0)) / speed
+        if speed < MIN_SPEED_FOR_COURSE_MPS:
+            course_sd = math.inf
+        return speed, speed_sd, math.atan2(v[0], v[1]) % (2.0 * math.pi), course_sd
+
+    # ------------------------------------------------------------ per pair
+    def update(self, t_s: float, z_en_m: np.ndarray | None, r_en: np.ndarray | None,
+               reseat: bool = False) -> bool:
+        """Advance to `t_s` and take the east/north fix `z_en_m` with covariance `r_en` (None: a
+        pair without one). `reseat`: the measured point moved on the hull (keep the velocity,
+        start the position over). True when the fix was taken."""
+        if z_en_m is None or r_en is None:
+            if self.started and self.t_s is not None and t_s > self.t_s:
+                self._predict(t_s - self.t_s)
+                self.t_s = t_s
+            return False
+        z = np.asarray(z_en_m, float)
+        if not self.started:
+            self._start(t_s, z, r_en)
+            return True
+        dt = max(t_s - (self.t_s if self.t_s is not None else t_s), 0.0)
+        r = r_en * self._inflation(dt)
+        if dt > 0:
+            self._predict(dt)
+            self.since_s += dt
+        self.t_s = t_s
+        if reseat:
+            self._reseat(z, r)
+            return True
+        x, p = self.state()
+        y = z - x[:2]
+        nis = _quad(p[:2, :2] + r, y)
+        self.last_nis = nis
+        if nis > GATE_NIS:
+            self.outliers += 1
+            if self.outliers >= RESEAT_AFTER:
+                self._reseat(z, r)
+                return True
+            return False
+        self.outliers = 0
+        likelihood = np.zeros(2)
+        for j in range(2):
+            yj = z - self.x[j, :2]
+            sj = self.p[j, :2, :2] + r
+            det = float(sj[0, 0] * sj[1, 1] - sj[0, 1] * sj[1, 0])
+            s_inv = np.array([[sj[1, 1], -sj[0, 1]], [-sj[1, 0], sj[0, 0]]]) / det
+            k = self.p[j, :, :2] @ s_inv  # P H^T S^-1
+            self.x[j] = self.x[j] + k @ yj
+            ikh = _EYE4 - k @ H
+            self.p[j] = ikh @ self.p[j] @ ikh.T + k @ r @ k.T  # Joseph form: stays symmetric, positive
+            nj = float(yj @ s_inv @ yj)
+            likelihood[j] = math.exp(-0.5 * nj) / (2.0 * math.pi * math.sqrt(max(det, 1e-300)))
+        post = likelihood * self.mu
+        if post.sum() > 0 and np.all(np.isfinite(post)):
+            self.mu = post / post.sum()
+        self.measurements += 1
+        return True
+
+    def _inflation(self, dt_s: float) -> float:
+        """(1 + rho) / (1 - rho), rho = exp(-dt / tau): a long average's variance of first-order
+        correlated errors over that of white ones (module doc); 1 without correlation."""
+        if self.s.correlation_s <= 0 or dt_s <= 0:
+            return 1.0
+        rho = math.exp(-dt_s / self.s.correlation_s)
+        return (1.0 + rho) / (1.0 - rho)
+
+    def _start(self, t_s: float, z: np.ndarray, r: np.ndarray) -> None:
+        self.t_s, self.started, self.measurements, self.since_s = t_s, True, 1, 0.0
+        p = np.zeros((4, 4))
+        p[:2, :2] = r
+        p[2, 2] = p[3, 3] = INIT_SPEED_SIGMA_MPS**2
+        for j in range(2):
+            self.x[j] = np.array([z[0], z[1], 0.0, 0.0])
+            self.p[j] = p
+        self.mu = np.array([0.5, 0.5])
+        self.outliers = 0
+
+    def _reseat(self, z: np.ndarray, r: np.ndarray) -> None:
+        """Start the position over on z (covariance r), keeping each model's velocity and its variance."""
+        for j in range(2):
+            self.x[j, :2] = z
+            pv = self.p[j, 2:, 2:].copy()
+            self.p[j] = 0.0
+            self.p[j, :2, :2] = r
+            self.p[j, 2:, 2:] = pv
+        self.outliers = 0
+
+    def _predict(self, dt_s: float) -> None:
+        """The IMM's mixing (Markov chain of mean stays QUIET_STAY_S / MANOEUVRE_STAY_S) and each
+        model's CV prediction."""
+        p01 = 1.0 - math.exp(-dt_s / QUIET_STAY_S)
+        p10 = 1.0 - math.exp(-dt_s / MANOEUVRE_STAY_S)
+        trans = np.array([[1.0 - p01, p01], [p10, 1.0 - p10]])
+        c = self.mu @ trans  # predicted mode probabilities
+        w = (trans * self.mu[:, None]) / np.maximum(c[None, :], 1e-300)  # w[i, j] = P(i | j)
+        x0 = w.T @ self.x
+        f = _transition(dt_s)
+        d = self.x[:, None, :] - x0[None, :, :]  # d[i, j] = x_i - x0_j
+        p0 = np.einsum("ij,iab->jab", w, self.p) + np.einsum("ij,ija,ijb->jab", w, d, d)
+        self.x = x0 @ f.T
+        self.p = f @ p0 @ f.T + np.stack([_process(q, dt_s) for q in self.qs])
+        self.mu = c
+
+
+# ---------------------------------------------------------------- per track, from the pipeline's points
+COLUMN_NOISE_PX = 0.05  # the least scatter a followed column is credited with (bearing sigma)
+DISPARITY_NOISE_FLOOR_PX = 0.02  # the least disparity scatter a fix is credited with (range sigma)
+
+
+@dataclass(frozen=True)
+class PairFix:
+    """One pair's own measurement of a track's point: east/north (m) and its covariance."""
+
+    en_m: np.ndarray
+    cov: np.ndarray
+
+
+def column_noise_px(columns: list[tuple[int, float]]) -> float:
+    """RMS residual of the followed columns about their least-squares line (>= COLUMN_NOISE_PX;
+    the floor alone with fewer than 5 follows)."""
+    if len(columns) < 5:
+        return COLUMN_NOISE_PX
+    t = np.array([c[0] for c in columns], float)
+    u = np.array([c[1] for c in columns], float)
+    a = np.vstack([t - t[-1], np.ones_like(t)]).T
+    coef, *_ = np.linalg.lstsq(a, u, rcond=None)
+    res = u - a @ coef
+    return max(COLUMN_NOISE_PX, float(math.sqrt(res @ res / (len(u) - 2))))
+
+
+def pair_fix(east_m: float, north_m: float, sigma_d_px: float, sigma_u_px: float, focal_px: float,
+             baseline_m: float) -> PairFix:
+    """A triangulated point's east/north and its anisotropic covariance: eq. 4.5's range sigma to
+    first order (r^2 sigma_d / (f L_B), eq. 2.12) along the line of sight, r sigma_u / f across it."""
+    r = math.hypot(east_m, north_m)
+    sigma_r = r * r * max(sigma_d_px, DISPARITY_NOISE_FLOOR_PX) / (focal_px * baseline_m)  # eq. 4.5
+    sigma_b = r * max(sigma_u_px, COLUMN_NOISE_PX) / focal_px
+    cov = measurement_cov(math.atan2(east_m, north_m), sigma_r, sigma_b)
+    return PairFix(np.array([east_m, north_m]), cov)
+
+
+@dataclass
+class _Entry:
+    track: GroundTrack
+    updates: int = 0  # the point's disparity-filter updates at the last pair (a drop: it restarted)
+
+
+class GroundTracks:
+    """The ground-plane filters of all live tracks, by track id."""
+
+    def __init__(self, settings: GroundSettings | None = None) -> None:
+        self.s = settings or GroundSettings()
+        self._by_id: dict[int, _Entry] = {}
+
+    def step(self, t_s: float, fixes: dict[int, tuple[PairFix | None, bool, int]]) -> None:
+        """Advance every live track's filter: track id -> (this pair's fix or None, whether the
+        point moved on the hull, its disparity filter's update count). Tracks not given are gone."""
+        self._by_id = {i: e for i, e in self._by_id.items() if i in fixes}
+        for track_id, (fix, jumped, updates) in fixes.items():
+            entry = self._by_id.setdefault(track_id, _Entry(GroundTrack(self.s)))
+            restarted = updates < entry.updates
+            entry.updates = updates
+            if fix is None:
+                entry.track.update(t_s, None, None)
+            else:
+                reseat = (jumped or restarted) and entry.track.started
+                entry.track.update(t_s, fix.en_m, fix.cov, reseat=reseat)
+
+    def motion(self, track_id: int) -> Motion | None:
+        """The track's east/north velocity and its speed and course sigmas, with whether each meets its
+        configured bound (the speed's bound holds for both); None before its first fix."""
+        entry = self._by_id.get(track_id)
+        est = None if entry is None else entry.track.speed_course()
+        vel = None if entry is None else entry.track.velocity()
+        if est is None or vel is None:
+            return None
+        _, speed_sd, _, course_sd = est
+        sog_ok = speed_sd <= self.s.max_sog_sigma_kn * KNOT_MPS
+        cog_ok = sog_ok and math.degrees(course_sd) <= self.s.max_cog_sigma_deg
+        return Motion(vel[0].copy(), speed_sd / KNOT_MPS, math.degrees(course_sd), sog_ok, cog_ok)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A track's ground motion for its fix."""
+
+    velocity_en_mps: np.ndarray  # (east, north)
+    sog_sigma_kn: float
+    cog_sigma_deg: float  # inf below MIN_SPEED_FOR_COURSE_MPS
+    sog_ok: bool  # the speed's sigma meets the bound: report SOG
+    cog_ok: bool  # ... and the course's: report COG
