@@ -14,7 +14,13 @@ from typing import TYPE_CHECKING, Any
 
 from drivers.serial_port import PySerialPort, SerialPortBase
 from edge.fix import ShipFix
-from edge.outputs.schedule import DEFAULT_SCHEDULE, NmeaSchedule, NmeaScheduler, schedule_from_config
+from edge.outputs.schedule import (
+    DEFAULT_SCHEDULE,
+    NmeaSchedule,
+    NmeaScheduler,
+    fix_counters,
+    schedule_from_config,
+)
 
 if TYPE_CHECKING:
     from edge.config.app import NmeaPort
@@ -97,5 +103,7 @@ class NmeaSerialOutput:
             "nmea_groups": sched.groups_sent, "nmea_refused": sched.refused, "nmea_waiting": sched.waiting,
             "serial_bytes": port.written_bytes, "serial_dropped": port.dropped,
             "serial_timeouts": port.write_timeouts, "serial_errors": port.errors,
+            "serial_submitted": port.submitted, "serial_written": port.written_messages,
+            **fix_counters(sched),
         }  # fmt: skip
         return fault, counters
