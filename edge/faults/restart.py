@@ -84,7 +84,8 @@ def recording(workdir: Path) -> Path:
 
 def write_config(workdir: Path, name: str, rec: Path, pty_path: str, state: Path) -> Path:
     cfg = {"cameras": {"kind": "replay", "path": str(rec), "pace": False, "loop": True},
-           "outputs": {"nmea": [{"url": pty_path, "baud": 115200}], "tracks_csv": str(workdir / f"{name}.csv"),
+           "outputs": {"nmea": [{"url": pty_path, "baud": 115200}],
+                       "tracks_csv": str(workdir / f"{name}.csv"),
                        "modbus": {"tcp": {"enabled": False}}},
            "health": {"stale_s": 30.0, "min_fps": 0.0, "leds": {"kind": "none"}, "state_dir": str(state)},
            "logging": {"level": "INFO"}}
@@ -134,7 +135,8 @@ def _sigkill(workdir: Path) -> list[Row]:
     procs: list[subprocess.Popen] = []
     try:
         t0 = time.monotonic()
-        procs.append(start(write_config(workdir, "run1", rec, reader.path, state), notify, workdir / "run1.log"))
+        config = write_config(workdir, "run1", rec, reader.path, state)
+        procs.append(start(config, notify, workdir / "run1.log"))
         if notify.wait_for("READY=1", t0) is None:
             return [Row("SIGKILL mid-run", "READY=1 from the first run", "no READY=1", False)]
         first = wait_numbers(reader, t0, 2, 15.0)
@@ -145,7 +147,8 @@ def _sigkill(workdir: Path) -> list[Row]:
         why = state_parses(state / FILE_NAME)
         rows.append(Row("SIGKILL after NMEA numbers " + ",".join(f"{n:02d}" for n in sorted(first)),
                         "state file parses after the kill", why or "parses", why is None and bool(first)))
-        procs.append(start(write_config(workdir, "run2", rec, reader.path, state), notify, workdir / "run2.log"))
+        config = write_config(workdir, "run2", rec, reader.path, state)
+        procs.append(start(config, notify, workdir / "run2.log"))
         ready_s = notify.wait_for("READY=1", killed_s)
         rows.append(Row("restart after SIGKILL", "READY=1 again (NOTIFY_SOCKET)",
                         "READY=1" if ready_s else "no READY=1", ready_s is not None,
