@@ -5,9 +5,11 @@ daemon's own and not the harness's. It is the real `Appliance` (capture thread, 
 outputs with their writer threads, the Modbus TCP server) built from a configuration file like
 `mast-stereo run`, with three additions that only observe:
 
-- every `sample_every` pairs one JSON line on stdout: pairs, seconds, RSS (VmRSS), open fds,
+- every `sample_every` pairs one JSON line on stdout: pairs, seconds, RSS (VmRSS), open fds (by
+  kind; not counting a PNG the capture thread happens to be reading at that instant),
   threads (from /proc/self), the block's per-pair latency (capture to outputs: p50, p99, max)
   and step time (the processing alone: p50, max);
+- the live tracks sent once more as L at shutdown (fixes the pipeline did not compute);
 - track ids: a new id must be above every id seen before (ids are never reused); a bounded
   window of recently seen ids lets a coasting track come back under its own id;
 - target numbers: the first NMEA port's allocator is wrapped; a number lent to another track
@@ -28,19 +30,20 @@ import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from drivers.camera.base import FramePair
 from drivers.notify import SystemdNotifier
 from edge.config.app import load_config
 from edge.daemon import Appliance
 from edge.encode.targets import TargetNumbers
-from edge.fix import ShipFix
+from edge.fix import ShipFix, TrackStatus
 from edge.outputs.nmea_serial import NmeaSerialOutput
 
 RECENT_STEPS = 2000  # a track id unseen this many pairs is retired: seeing it again is reuse
 
 
-def proc_self() -> dict[str, int]:
+def proc_self() -> dict[str, Any]:
     """RSS (kB), threads and open file descriptors of this process, from /proc."""
     out = {"rss_kb": 0, "threads": 0}
     with open("/proc/self/status", encoding="ascii") as f:
@@ -49,8 +52,16 @@ def proc_self() -> dict[str, int]:
                 out["rss_kb"] = int(line.split()[1])
             elif line.startswith("Threads:"):
                 out["threads"] = int(line.split()[1])
-    out["fds"] = len(os.listdir("/proc/self/fd")) - 1  # the listing's own descriptor
-    return out
+    kinds: dict[str, int] = {}
+    for fd in os.listdir("/proc/self/fd"):
+        try:
+            target = os.readlink(f"/proc/self/fd/{fd}")
+        except OSError:  # the listing's own descriptor, closed by now
+            continue
+        kind = target.split(":")[0] if ":" in target else "png" if target.endswith(".png") else "file"
+        kinds[kind] = kinds.get(kind, 0) + 1
+    out["fds"] = sum(n for k, n in kinds.items() if k != "png")  # not the frame the capture is reading
+    return {**out, "fd_kinds": kinds}
 
 
 class AuditedNumbers(TargetNumbers):
@@ -137,11 +148,16 @@ class SoakAppliance(Appliance):
         def q(v: list[int], p: float) -> float:
             return v[min(len(v) - 1, int(p * len(v)))] / 1e6 if v else 0.0
 
-        rec = {"pairs": self.steps, "t_s": round(time.monotonic() - self.t0_s, 3), **proc_self(),
+        now_s = time.monotonic()  # CLOCK_MONOTONIC: the harness's clock too
+        rec = {"pairs": self.steps, "t_s": round(now_s - self.t0_s, 3), "mono_s": now_s, **proc_self(),
                "lat_p50_ms": q(lat, 0.5), "lat_p99_ms": q(lat, 0.99), "lat_max_ms": q(lat, 1.0),
                "step_p50_ms": q(step, 0.5), "step_max_ms": q(step, 1.0),
                "tracks_max_id": self.max_id}
         print(json.dumps(rec), flush=True)
+
+    def _send_lost(self) -> None:
+        self.lost_at_stop = sum(f.status is not TrackStatus.LOST for f in self.last_fixes)
+        super()._send_lost()
 
     def final(self) -> dict:
         outputs = {}
@@ -154,6 +170,7 @@ class SoakAppliance(Appliance):
             "final": True, "steps": self.steps,
             "pipeline": {"pairs": c.pairs, "processed": c.processed, "fixes": c.fixes, "failed": c.failed,
                          "bad_input": c.bad_input, "gaps": c.gaps},
+            "lost_at_stop": getattr(self, "lost_at_stop", 0),  # live tracks sent once more as L at shutdown
             "input_dropped_pairs": self.queue.dropped, "capture_errors": self.capture_errors,
             "outputs": outputs, "id_violations": self.id_violations[:20], "max_track_id": self.max_id,
             "number_violations": numbers.violations[:20] if numbers else None,
