@@ -32,6 +32,9 @@ def serial_bytes_per_s(baud: int, bytesize: int = 8, parity: str = "N", stopbits
     return baud / bits
 
 
+CLOSE_DRAIN_S = 0.3  # at shutdown; the daemon must be gone within 2 s of SIGTERM
+
+
 class NmeaSerialOutput:
     """Scheduler + serial port. `publish()` is the processing thread's only call; it never blocks.
 
@@ -88,7 +91,9 @@ class NmeaSerialOutput:
         return groups
 
     def close(self) -> None:
-        self.port.close()
+        """Give the writer CLOSE_DRAIN_S to send what is queued (the shutdown's L sentences);
+        what is left then is counted as dropped, so every scheduled group is accounted for."""
+        self.port.close(timeout_s=CLOSE_DRAIN_S, drain=True)
 
     def health(self) -> tuple[str | None, dict[str, int]]:
         """(fault text or None, counters) for `HealthMonitor.beat(..., fault=, counters=)`."""
