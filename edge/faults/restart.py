@@ -194,7 +194,7 @@ def _corrupt(workdir: Path) -> list[Row]:
             while not statuses and time.monotonic() < end:
                 time.sleep(0.2)
                 statuses = [s for s in notify.texts("STATUS=", t0) if "state lost" in s]
-            time.sleep(3.0)  # tracks form; their numbers must be held
+            time.sleep(2.0)  # tracks form; their numbers must be held
         numbers = numbers_after(reader, t0)
         proc.send_signal(signal.SIGTERM)
         code = proc.wait(10)

@@ -332,8 +332,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _short_soak(workdir: Path) -> list[Row]:
-    """1500 pairs of the small lap, or of $MAST_FAULTS_RECORDING (the tests' clip, looped)."""
-    pairs = 1000
+    """800 pairs of the small lap, or of $MAST_FAULTS_RECORDING (the tests' clip, looped)."""
+    pairs = 800
     given = os.environ.get("MAST_FAULTS_RECORDING")
     bounds, _, _ = run_soak(workdir, pairs, TEST_LAP, warmup=pairs // 3, sample_every=250, log=False,
                             recording=Path(given) if given else None)
