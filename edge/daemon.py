@@ -1,9 +1,10 @@
 """The live appliance: frame-pair source -> Pipeline -> Outputs, with health, the watchdog and reload.
 
 Threads (DESIGN.md): a capture thread reads the source into a one-slot queue where the newest
-pair wins (drops counted), so a slow step never backs up the cameras; a processing thread runs
-`Pipeline.step` and hands the fixes to `Outputs` (whose writers have their own threads); the
-caller's thread owns signals, sd_notify and the LEDs.
+pair wins (drops counted), so a slow step never backs up the cameras (a source without
+pacing, a recording or the simulator at full speed, waits for the slot instead: it loses
+nothing); a processing thread runs `Pipeline.step` and hands the fixes to `Outputs` (whose
+writers have their own threads); the caller's thread owns signals, sd_notify and the LEDs.
 
 Lifecycle under systemd (Type=notify):
 - `Appliance.build` does everything that can fail on a bad configuration (calibration, scenario,
@@ -53,6 +54,7 @@ from edge.journal import MESSAGE_IDS, FaultLog
 from edge.live_record import LiveRecorder, recording_stage
 from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
+from edge.persist import Persistence
 from edge.pipeline import Pipeline
 from edge.sources import SourcePlan, plan_source
 
@@ -79,8 +81,14 @@ class _Latest:
         self.dropped = 0
         self.ended = False
 
-    def put(self, pair: FramePair) -> None:
+    def put(self, pair: FramePair, wait_until: threading.Event | None = None) -> None:
+        """With `wait_until`, wait for the slot to be read first (a source without pacing: a recording
+        or the simulator at full speed loses nothing) unless that event is set (stop, reload)."""
         with self._cond:
+            while wait_until is not None and self._pair is not None and not wait_until.is_set():
+                self._cond.wait(QUEUE_WAIT_S)
+            if wait_until is not None and wait_until.is_set():
+                return  # stopping: the pair is not taken, and none was dropped
             self.dropped += self._pair is not None
             self._pair, self.put_ns = pair, time.monotonic_ns()
             self._cond.notify()
@@ -95,6 +103,7 @@ class _Latest:
         with self._cond:
             self._cond.wait_for(lambda: self._pair is not None or self.ended, timeout_s)
             pair, self._pair = self._pair, None
+            self._cond.notify()  # a waiting put
             return None if pair is None else (pair, self.put_ns)
 
 
@@ -150,6 +159,7 @@ class Appliance:
         self.reloads = 0
         self.reload_error: str | None = None
         self.faults = FaultLog(log)
+        self.persistence = Persistence.open(config.health.state_dir)  # NMEA numbers, track ids: edge.state
         self._step_lock = threading.Lock()  # held by one step + publish; a reload swaps between steps
         self._capture_thread: threading.Thread | None = None
         self._capture_stop = threading.Event()
@@ -203,7 +213,7 @@ class Appliance:
             if pair is None:
                 break
             self._beat_cameras(source, frames=1)
-            self.queue.put(pair)
+            self.queue.put(pair, stop if self.plan.lossless else None)
         if not stop.is_set():  # the source ended (a finite recording), not stopped or reloaded
             self.queue.end()
 
@@ -250,6 +260,8 @@ class Appliance:
         if self.recorder is not None:
             self.recorder.offer(pair)
             self.recorder.beat(self.health)
+        if self.persistence is not None:
+            self.persistence.after_step(self.pipeline, self.outputs)
         if self.on_fixes is not None:
             self.on_fixes(utc_ns, fixes)
         self.steps += 1  # after publishing: READY=1 waits for the first pair to reach the outputs
@@ -273,6 +285,8 @@ class Appliance:
             reload: threading.Event | None = None) -> int:
         """Run until `stop` is set, the source ends, or `seconds` pass; `reload` set asks for a
         reload of the configuration file. Returns an exit status."""
+        if self.persistence is not None:
+            self.persistence.restore(self.pipeline, self.outputs)
         self.outputs.start()
         self._start_capture()
         processing = threading.Thread(target=self._process, args=(stop,), name="processing", daemon=True)
@@ -307,6 +321,8 @@ class Appliance:
             self.outputs.close()
             if self.recorder is not None:
                 self.recorder.close()
+            if self.persistence is not None:
+                self.persistence.close(self.pipeline, self.outputs)
             if self.leds is not None:
                 self.leds.close()  # steady red: not running
         return 0
@@ -332,6 +348,9 @@ class Appliance:
             text += f"; {snap.reason}"
         if self.reload_error:
             text += f"; reload refused: {self.reload_error}"
+        held = self.persistence.status() if self.persistence is not None else None
+        if held:
+            text += f"; {held}"
         return text
 
     def _report(self, snap: HealthSnapshot, ready: bool) -> None:
@@ -397,6 +416,8 @@ class Appliance:
                     self.leds.close()
                 self.leds = build_leds(config.health.leds)
             self.config, self.plan, self.reload_error = config, plan, None
+            if self.persistence is not None and (outputs is not None or self.steps == 0):
+                self.persistence.restore(self.pipeline, self.outputs, from_memory=True)
             if cameras_changed:
                 self._start_capture()
         self.reloads += 1

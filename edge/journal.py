@@ -29,6 +29,7 @@ MESSAGE_IDS = {
     "cleared": "c4e6a8b0d2f44e6a8c0e2a4c6e8a0c03",
     "reload": "5b7d9f1a3c5e4b7d9f1a3c5e7b9d1f04",
     "reload_refused": "9e1b3d5f7a9c4e1b3d5f7a9c1e3b5d05",
+    "state_lost": "2d8f0b4e6a1c4d3f8b5e7a9c0d2f4b06",  # edge.state: the state file missing or corrupt
 }
 
 

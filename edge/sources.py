@@ -42,6 +42,7 @@ class SourcePlan:
     fps: float
     description: str
     monotonic_stamps: bool  # pairs stamped on CLOCK_MONOTONIC (live); else a recording's own clock
+    lossless: bool = False  # not paced: the capture thread waits for the processing, never drops
 
 
 def read_timeout_s(rate_hz: float) -> float:
@@ -64,7 +65,8 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
         site = config.effective_site or scenario.spec.site or cal.site
         return SourcePlan(lambda: live_source(scenario, cams.seed, cams.pace, cams.loop),
                           Calibration(cal.rig, site, cal.sigma), scenario.spec.fps,
-                          f"virtual scenario {cams.scenario!r} seed {cams.seed}", monotonic_stamps=cams.pace)
+                          f"virtual scenario {cams.scenario!r} seed {cams.seed}", monotonic_stamps=cams.pace,
+                          lossless=not cams.pace)
     if isinstance(cams, ReplayCameras):
         root = Path(cams.path)
         try:
@@ -80,7 +82,7 @@ def plan_source(config: AppConfig, config_file: str | Path | None) -> SourcePlan
             raise ConfigError(root / "meta.yaml", "fps", "a positive frame rate", fps)
         return SourcePlan(lambda: ReplaySource(root, pace=cams.pace, loop=cams.loop),
                           Calibration(cal.rig, site, cal.sigma), fps, f"recording {root}",
-                          monotonic_stamps=False)
+                          monotonic_stamps=False, lossless=not cams.pace)
     return _v4l2_plan(config, cams, config_file)
 
 

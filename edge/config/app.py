@@ -244,6 +244,8 @@ class HealthConfig:
     require_clock_sync: bool = setting(
         True, doc="an unsynchronised system clock is a fault (NMEA carries UTC); false on a bench unit")
     leds: LedsConfig = setting(default_factory=LedsConfig)
+    state_dir: str | None = setting(
+        None, doc="where NMEA target numbers and track ids survive a crash; null: $STATE_DIRECTORY")
 
 
 @dataclass(frozen=True)

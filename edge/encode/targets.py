@@ -21,6 +21,10 @@ the oldest waiting track is served first.
 
 A track that comes back while its number is lost or in quarantine gets the
 same number again (it is the same ship).
+
+Across a restart (`edge.state`): `held` lists what is not free, `hold` puts a number into
+quarantine with no owner (the previous run's), and `version` changes whenever the set of
+numbers lent or held changes, so the caller saves the state only then.
 """
 
 from __future__ import annotations
@@ -43,6 +47,7 @@ class TargetNumbers:
         self._lost: dict[int, int] = {}  # number -> track id (L being sent)
         self._quarantine: dict[int, tuple[int, float]] = {}  # number -> (track id, free at s)
         self._free_since = dict.fromkeys(range(1, max_number + 1), -math.inf)  # number -> last retired s
+        self.version = 0  # bumped on every change of the lent or held numbers
 
     def number_of(self, track_id: int) -> int | None:
         """The number of a live track, or None."""
@@ -60,6 +65,7 @@ class TargetNumbers:
         if number is None:
             return None
         self._live[track_id] = number
+        self.version += 1
         return number
 
     def release(self, track_id: int) -> int | None:
@@ -67,12 +73,30 @@ class TargetNumbers:
         number = self._live.pop(track_id, None)
         if number is not None:
             self._lost[number] = track_id
+            self.version += 1
         return number
 
     def retire(self, number: int, now_s: float) -> None:
         """The last sentence for a lost number went out at `now_s`: start its quarantine."""
         track_id = self._lost.pop(number)
         self._quarantine[number] = (track_id, now_s + self.quarantine_s)
+        self.version += 1
+
+    def hold(self, number: int, seconds: float, now_s: float) -> None:
+        """Quarantine a free `number` for `seconds` from `now_s`, owned by no track (a previous
+        run's number): nobody gets it sooner. A number not free now is left as it is."""
+        if number in self._free_since and seconds > 0:
+            del self._free_since[number]
+            self._quarantine[number] = (-1, now_s + seconds)
+            self.version += 1
+
+    def held(self, now_s: float) -> dict[int, float | None]:
+        """Numbers not free now: None for live or lost ones, else the quarantine's seconds left."""
+        self._expire(now_s)
+        out: dict[int, float | None] = {n: None for n in self._live.values()}
+        out.update(dict.fromkeys(self._lost, None))
+        out.update({n: free_at - now_s for n, (_, free_at) in self._quarantine.items()})
+        return out
 
     def busy(self) -> int:
         """Numbers that cannot be lent now (live + lost + in quarantine)."""
@@ -94,3 +118,4 @@ class TargetNumbers:
             if now_s >= free_at_s:
                 del self._quarantine[number]
                 self._free_since[number] = free_at_s
+                self.version += 1

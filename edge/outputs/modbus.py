@@ -4,6 +4,10 @@ The map is `edge.encode.registers`; the servers (`drivers.modbus`) only ever rec
 immutable images, so a reader never sees half an update. A server that cannot start (port
 taken, serial device missing) is counted, logged once, reported as a fault and retried with
 doubling back-off from `publish`; it never stops the appliance.
+
+Accounting: every fix handed in is on a served image, or counted: `modbus_fixes_unslotted` (all
+`max_tracks` slots held by other tracks; slots go to tracking before acquiring, nearest first)
+or `modbus_fixes_unserved` (no server running). A slotted fix stays readable until the next step.
 """
 
 from __future__ import annotations
@@ -71,6 +75,9 @@ class ModbusOutput:
         self._slots = [_ServerSlot(s, clock) for s in servers]
         self._snapshot, self._target_numbers = snapshot, target_numbers
         self._assignment = SlotAssignment.empty(identity.max_tracks)
+        self.fixes_in = 0  # fixes handed to publish() ...
+        self.fixes_unslotted = 0  # ... of which found no free slot (slot overflow: not on Modbus)
+        self.fixes_unserved = 0  # ... or were slotted in an image no server was running to serve
 
     @property
     def servers(self) -> list[ModbusServer]:
@@ -84,18 +91,24 @@ class ModbusOutput:
         image = build_snapshot(fixes, self._snapshot(), self.identity, self._assignment,
                                utc_ns=utc_ns, target_numbers=self._target_numbers(fixes))
         self._assignment = image.assignment
+        self.fixes_in += len(fixes)
+        self.fixes_unslotted += len(image.unslotted)
         served = False
         for slot in self._slots:
             slot.ensure_started()
             if slot.running:
                 slot.server.update(image.registers)
                 served = True
+        if not served:
+            self.fixes_unserved += len(fixes) - len(image.unslotted)
         return [image.registers] if served else []
 
     def health(self) -> tuple[str | None, dict[str, int]]:
         """Start faults, and the servers' counters: refused writes and hostile clients show here."""
         errors = [s.error for s in self._slots if s.error]
-        counters = {"start_failures": sum(s.failures for s in self._slots)}
+        counters = {"start_failures": sum(s.failures for s in self._slots), "modbus_fixes_in": self.fixes_in,
+                    "modbus_fixes_unslotted": self.fixes_unslotted,
+                    "modbus_fixes_unserved": self.fixes_unserved}
         for slot in self._slots:
             stats = slot.server.stats
             for name in MODBUS_COUNTERS:

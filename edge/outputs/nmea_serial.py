@@ -14,7 +14,13 @@ from typing import TYPE_CHECKING, Any
 
 from drivers.serial_port import PySerialPort, SerialPortBase
 from edge.fix import ShipFix
-from edge.outputs.schedule import DEFAULT_SCHEDULE, NmeaSchedule, NmeaScheduler, schedule_from_config
+from edge.outputs.schedule import (
+    DEFAULT_SCHEDULE,
+    NmeaSchedule,
+    NmeaScheduler,
+    fix_counters,
+    schedule_from_config,
+)
 
 if TYPE_CHECKING:
     from edge.config.app import NmeaPort
@@ -24,6 +30,9 @@ def serial_bytes_per_s(baud: int, bytesize: int = 8, parity: str = "N", stopbits
     """Characters per second of an asynchronous serial line: baud / (start + data + parity + stop bits)."""
     bits = 1 + bytesize + (0 if parity == "N" else 1) + stopbits
     return baud / bits
+
+
+CLOSE_DRAIN_S = 0.3  # at shutdown; the daemon must be gone within 2 s of SIGTERM
 
 
 class NmeaSerialOutput:
@@ -82,7 +91,9 @@ class NmeaSerialOutput:
         return groups
 
     def close(self) -> None:
-        self.port.close()
+        """Give the writer CLOSE_DRAIN_S to send what is queued (the shutdown's L sentences);
+        what is left then is counted as dropped, so every scheduled group is accounted for."""
+        self.port.close(timeout_s=CLOSE_DRAIN_S, drain=True)
 
     def health(self) -> tuple[str | None, dict[str, int]]:
         """(fault text or None, counters) for `HealthMonitor.beat(..., fault=, counters=)`."""
@@ -97,5 +108,7 @@ class NmeaSerialOutput:
             "nmea_groups": sched.groups_sent, "nmea_refused": sched.refused, "nmea_waiting": sched.waiting,
             "serial_bytes": port.written_bytes, "serial_dropped": port.dropped,
             "serial_timeouts": port.write_timeouts, "serial_errors": port.errors,
+            "serial_submitted": port.submitted, "serial_written": port.written_messages,
+            **fix_counters(sched),
         }  # fmt: skip
         return fault, counters

@@ -19,7 +19,13 @@ from typing import TYPE_CHECKING, Any
 from drivers.udp import MulticastUdpSender, UdpSenderBase
 from edge.encode.nmea import next_line_count, tag_block, udpbc_datagram
 from edge.fix import ShipFix
-from edge.outputs.schedule import DEFAULT_SCHEDULE, NmeaSchedule, NmeaScheduler, schedule_from_config
+from edge.outputs.schedule import (
+    DEFAULT_SCHEDULE,
+    NmeaSchedule,
+    NmeaScheduler,
+    fix_counters,
+    schedule_from_config,
+)
 
 if TYPE_CHECKING:
     from edge.config.app import UdpConfig
@@ -83,4 +89,5 @@ class NmeaUdpOutput:
         stats = self.sender.stats()
         fault = "UDP output failing" if stats.fault else None
         return fault, {"udp_datagrams": stats.sent_datagrams, "udp_dropped": stats.dropped,
-                       "udp_errors": stats.errors, "nmea_refused": self.scheduler.stats().refused}
+                       "udp_errors": stats.errors, "nmea_refused": self.scheduler.stats().refused,
+                       **fix_counters(self.scheduler.stats())}

@@ -22,6 +22,16 @@ target) to send now. Rules (OUTPUTS.md):
 - A fix that cannot be framed (e.g. a field too long for 82 characters) is
   refused and counted, never sent half-right.
 
+Accounting (the soak checks it): every fix handed to `step` ends in exactly one counter of
+`SchedulerStats`: ``fixes_in = fixes_sent + fixes_superseded + fixes_no_number +
+fixes_not_eligible + fixes_refused + fixes_pending``. Sent: a group carrying it went out (a live
+update, or the first L repeat of a dropped track's last fix). Superseded: a newer fix of the
+same track replaced it before its refresh slot (`min_refresh_s`) or the byte budget let it out
+(newest wins per track: a receiver wants the latest position, not a backlog). No number: it
+was replaced while its track waited for a free target number. Not eligible: status Q without
+`send_acquiring`, or an L fix of a track NMEA never carried. Pending: still held (the current
+fix of a live or lost track), sent or superseded later.
+
 The clock (monotonic seconds) is injectable; the scheduler itself does no
 I/O, so its results are deterministic for a given clock. `edge.outputs.nmea_serial`
 joins it to a serial port; the IEC 61162-450 UDP output is `edge.outputs.nmea_udp`, and
@@ -90,9 +100,21 @@ class SchedulerStats:
     bytes_sent: int
     refused: int  # fixes that could not be framed (NmeaError)
     tracks_waited: int  # tracks that found all target numbers busy
+    fixes_in: int  # fixes handed to step(); the identity of the module docstring holds
+    fixes_sent: int
+    fixes_superseded: int
+    fixes_no_number: int
+    fixes_not_eligible: int
+    fixes_refused: int
     live: int  # live tracks known to the scheduler
     waiting: int  # live tracks without a number right now
     lost_pending: int  # dropped tracks whose L repeats are not all sent yet
+    fixes_pending: int  # fixes held now (a live or lost track's current fix), not yet sent
+
+    @property
+    def fixes_dropped(self) -> int:
+        """Fixes that will never go out, each for a documented reason."""
+        return self.fixes_superseded + self.fixes_no_number + self.fixes_not_eligible + self.fixes_refused
 
 
 @dataclass(slots=True)
@@ -101,6 +123,7 @@ class _Live:
     number: int | None
     last_sent_s: float = -math.inf
     waited: bool = False  # found all numbers busy at least once
+    unsent: bool = True  # `fix` has not gone out yet (the accounting's pending)
 
 
 @dataclass(slots=True)
@@ -109,6 +132,7 @@ class _Lost:
     number: int
     remaining: int
     due_s: float
+    unsent: bool = True
 
 
 class NmeaScheduler:
@@ -135,7 +159,8 @@ class NmeaScheduler:
         self._last_s: float | None = None
         self._live: dict[int, _Live] = {}
         self._lost: dict[int, _Lost] = {}  # by track id
-        keys = ("groups_sent", "lost_groups_sent", "bytes_sent", "refused", "tracks_waited")
+        keys = ("groups_sent", "lost_groups_sent", "bytes_sent", "refused", "tracks_waited", "fixes_in",
+                "fixes_sent", "fixes_superseded", "fixes_no_number", "fixes_not_eligible", "fixes_refused")
         self._counts = dict.fromkeys(keys, 0)
 
     def step(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
@@ -151,6 +176,9 @@ class NmeaScheduler:
             if group and not self._spend(group, out):
                 return out
             self._counts["lost_groups_sent"] += bool(group)
+            if lost.unsent:
+                self._counts["fixes_sent" if group else "fixes_refused"] += 1
+                lost.unsent = False
             lost.remaining -= 1
             lost.due_s = now_s + self.schedule.lost_interval_s
             if lost.remaining <= 0 or not group:
@@ -164,6 +192,9 @@ class NmeaScheduler:
             if group and not self._spend(group, out):
                 break
             track.last_sent_s = now_s
+            if track.unsent:
+                self._counts["fixes_sent" if group else "fixes_refused"] += 1
+                track.unsent = False
         return out
 
     def stats(self) -> SchedulerStats:
@@ -172,6 +203,8 @@ class NmeaScheduler:
             live=len(self._live),
             waiting=sum(t.number is None for t in self._live.values()),
             lost_pending=len(self._lost),
+            fixes_pending=sum(t.unsent for t in self._live.values())
+            + sum(e.unsent for e in self._lost.values()),
         )
 
     def _refill(self, now_s: float) -> None:
@@ -202,22 +235,34 @@ class NmeaScheduler:
             return ()
 
     def _update(self, fixes: Iterable[ShipFix], now_s: float) -> None:
-        latest = {fix.track_id: fix for fix in fixes}
+        given = list(fixes)
+        latest = {fix.track_id: fix for fix in given}
+        self._counts["fixes_in"] += len(given)
+        self._counts["fixes_superseded"] += len(given) - len(latest)  # two fixes of one track in a step
+        used: set[int] = set()  # L fixes that became a dropped track's last word
         for track_id in list(self._live):
             fix = latest.get(track_id)
             if fix is None or fix.status is TrackStatus.LOST:
                 self._drop(track_id, fix, now_s)
+                if fix is not None:
+                    used.add(track_id)
         wanted = {TrackStatus.TRACKING, TrackStatus.ACQUIRING} if self.schedule.send_acquiring else {
             TrackStatus.TRACKING}  # fmt: skip
         for track_id in sorted(latest):
             fix = latest[track_id]
             track = self._live.get(track_id)
             if track is not None:
-                track.fix = fix
+                if track.unsent:
+                    self._counts["fixes_superseded" if track.number is not None else "fixes_no_number"] += 1
+                track.fix, track.unsent = fix, True
             elif fix.status in wanted:
-                self._lost.pop(track_id, None)  # a dropped track that came back keeps its number
+                back = self._lost.pop(track_id, None)  # a dropped track that came back keeps its number
+                if back is not None and back.unsent:
+                    self._counts["fixes_superseded"] += 1
                 track = self._live[track_id] = _Live(fix, None)
             else:
+                if track_id not in used:
+                    self._counts["fixes_not_eligible"] += 1
                 continue
             if track.number is None:
                 track.number = self.numbers.assign(track_id, now_s)
@@ -231,10 +276,20 @@ class NmeaScheduler:
     def _drop(self, track_id: int, fix: ShipFix | None, now_s: float) -> None:
         track = self._live.pop(track_id)
         number = self.numbers.release(track_id)
-        if number is None:
+        if number is None:  # it never had a number: its held fix and an L fix go nowhere
+            self._counts["fixes_no_number"] += track.unsent + (fix is not None)
             return
+        if fix is not None and track.unsent:
+            self._counts["fixes_superseded"] += 1  # the L fix replaces the unsent one
         last = fix if fix is not None else dataclasses.replace(track.fix, status=TrackStatus.LOST)
-        self._lost[track_id] = _Lost(last, number, self.schedule.lost_repeats, now_s)
+        unsent = fix is not None or track.unsent
+        self._lost[track_id] = _Lost(last, number, self.schedule.lost_repeats, now_s, unsent)
+
+
+def fix_counters(stats: SchedulerStats) -> dict[str, int]:
+    """The fix accounting as health counters: in = sent + dropped + pending."""
+    return {"nmea_fixes_in": stats.fixes_in, "nmea_fixes_sent": stats.fixes_sent,
+            "nmea_fixes_dropped": stats.fixes_dropped, "nmea_fixes_pending": stats.fixes_pending}
 
 
 def schedule_from_config(cfg: NmeaPort | UdpConfig) -> NmeaSchedule:

@@ -65,7 +65,9 @@ def test_a_multicast_receiver_gets_tagged_sentences() -> None:
     assert [tags for tags, _ in decoded] == [{"s": "RA0042", "n": str(n)} for n in (1, 2, 3, 4)]
     assert [s for _, s in decoded] == [ttm(fix(1), 1), tll(fix(1), 1), ttm(fix(2), 2), tll(fix(2), 2)]
     assert all(pynmea2.parse(s, check=True) for _, s in decoded)
-    assert out.health() == (None, {"udp_datagrams": 4, "udp_dropped": 0, "udp_errors": 0, "nmea_refused": 0})
+    assert out.health() == (None, {"udp_datagrams": 4, "udp_dropped": 0, "udp_errors": 0, "nmea_refused": 0,
+                                   "nmea_fixes_in": 2, "nmea_fixes_sent": 2, "nmea_fixes_dropped": 0,
+                                   "nmea_fixes_pending": 0})
 
 
 def test_line_counter_wraps_from_999_to_1_and_every_track_is_refreshed_once_per_interval() -> None:

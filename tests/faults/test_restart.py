@@ -1,0 +1,19 @@
+"""The restart fault cases (edge.faults.restart) under pytest, on a recording this session renders
+once (the golden suite's two-ships-crossing clip, looped at full speed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from edge.faults.matrix import run_case
+from edge.faults.restart import CASES
+
+
+@pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
+def test_restart_case(case, tmp_path: Path, recording, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MAST_FAULTS_RECORDING", str(recording("two-ships-crossing", 60)))
+    rows = run_case(case, tmp_path)
+    failed = [r for r in rows if not r.passed and not r.skipped]
+    assert not failed, "\n".join(f"{r.fault}: expected {r.expected}, observed {r.observed}" for r in failed)
