@@ -17,7 +17,7 @@ and predicted sigma are kept with three detector statistics:
 A window counts as biased when |error| > 0.1 px. The detector table gives, per false-alarm rate
 on all clean windows, the threshold and the share of biased windows flagged. The accuracy table
 gives per set the RMS error, the biased share and the share beyond 3 sigma of the matcher's
-predicted sigma, alone and with the check's additive term (GAIN x |d15 - d9| above DEADZONE_PX,
+predicted sigma, alone and with the check's additive term (GAIN x |d15 - d11| above DEADZONE_PX,
 the single-pair form of AliasCheck.sigma_px's persistent disagreement). The steady table runs
 the real `AliasCheck` over 5 noisy pairs at one disparity (a ship at a steady range) and gives the
 share of cases whose mean error lies beyond 3 sigma for several GAINs (0: the check off).
@@ -64,7 +64,7 @@ def high_band(template: np.ndarray, cutoff: float = 0.35) -> float:
 
 
 def samples(kind: str, psf: float, seeds: range, n_fractions: int = 8) -> np.ndarray:
-    """Rows (error, sigma, nyquist L1, high band, |d15 - d9|) of the valid default matches."""
+    """Rows (error, sigma, nyquist L1, high band, |d15 - d11|) of the valid default matches."""
     whole, h = 4, WINDOW // 2
     size_y, size_x = WINDOW + 6, WINDOW + 2 * whole + 22
     xc, yc = size_x - h - 5, size_y // 2
@@ -140,7 +140,7 @@ def section_aliasing(args: argparse.Namespace, out: list[str]) -> None:
                     f"{np.mean(alias > 0):.3f}"])
     out.append(f"Aliasing (issue 16): {len(seeds)} seeds x 8 fractions per set, 15x15 window, 1 DN; "
                f"'> 3 sigma' against the matcher's sigma, and with the window check's term "
-               f"(GAIN {GAIN} x |d15 - d9| above {DEADZONE_PX} px)")
+               f"(GAIN {GAIN} x |d15 - d11| above {DEADZONE_PX} px)")
     out.append(table(["set", "windows", "RMS px", f"|e|>{BIASED_PX}", "> 3 sigma", "> 3 sigma checked",
                       "term on"], acc))
     aliased = data[SETS[0][0]]
@@ -148,7 +148,7 @@ def section_aliasing(args: argparse.Namespace, out: list[str]) -> None:
     clean = np.concatenate([data[name] for name, _, _, flag in SETS if not flag])
     rows = []
     for col, label in ((2, "nyquist L1 (2nd/1st differences)"), (3, "FFT high band (>= 0.35 c/px)"),
-                       (4, "window disagreement |d15 - d9|")):
+                       (4, "window disagreement |d15 - d11|")):
         cells = [label]
         for far in FALSE_ALARMS:
             thr = float(np.quantile(clean[:, col], 1.0 - far))

@@ -134,8 +134,8 @@ class PipelineConfig:
     gate_sigma: float = setting(3.0, positive=True, doc="innovation gate of the Kalman filter, sigmas")
     coast_s: float = setting(3.0, min=0.0, max=600.0, doc="a track unseen this long turns lost (L)")
     alias_check: bool = setting(
-        False, doc="for cameras without an anti-aliasing filter (sharp optics): cross-check every match "
-        "with a smaller window and widen the fix's sigma by their disagreement (one more match per track)"
+        True, doc="cross-check every match with a 4-px smaller window and widen the fix's sigma by their "
+        "persistent disagreement, at most 0.1 px (aliasing on sharp optics; one more match per track)"
     )
     max_sog_sigma_kn: float = setting(
         0.75, positive=True, max=50.0,

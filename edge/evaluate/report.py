@@ -72,17 +72,17 @@ def load_ships(root: Path, meta: dict) -> list[em.Ship]:
 
 
 def run(root: Path, stages: bool, subpixel: str | None = None,
-        alias_check: bool = False) -> tuple[dict[str, dict[int, list]], Pipeline, dict]:
+        alias_check: bool = True) -> tuple[dict[str, dict[int, list]], Pipeline, dict]:
     """Fixes by stage name and pair time; the product pipeline (for its counters and geometry),
     with another sub-pixel method than its default if `subpixel` is given, and with
-    pipeline.alias_check on if `alias_check` (the other stages stay the thesis's)."""
+    pipeline.alias_check off unless `alias_check` (the default: on; the other stages stay the thesis's)."""
     source = open_recording(root)
     meta = source.meta
     cal = recording_calibration(root, meta)
     fps = float(meta["fps"])
     pipes = stage_pipelines(cal, PipelineConfig(), fps=fps) if stages else \
         {"product": Pipeline(cal, PipelineConfig(), fps=fps)}
-    if subpixel is not None or alias_check:
+    if subpixel is not None or alias_check != PipelineConfig.alias_check:
         pipes["product"] = Pipeline(cal, PipelineConfig(alias_check=alias_check), fps=fps,
                                     subpixel=subpixel or PointSettings.subpixel)
     fixes: dict[str, dict[int, list]] = {name: defaultdict(list) for name in pipes}
@@ -176,7 +176,7 @@ def plots(out: Path, name: str, results: dict[str, em.Evaluation], ships: list[e
 
 
 def evaluate_recording(root: Path, stages: bool | None, plot_dir: Path | None,
-                       subpixel: str | None = None, alias_check: bool = False) -> dict:
+                       subpixel: str | None = None, alias_check: bool = True) -> dict:
     source_meta = open_recording(root).meta
     name = str(source_meta.get("scenario") or root.name)
     stages = name == "akashi-crossing" if stages is None else stages
@@ -271,8 +271,8 @@ def main(argv: list[str] | None = None) -> int:
     group.add_argument("--no-stages", dest="stages", action="store_false")
     parser.add_argument("--subpixel", choices=SUBPIXELS, help="the product pipeline's sub-pixel method "
                         f"(default {PointSettings.subpixel})")
-    parser.add_argument("--alias-check", action="store_true",
-                        help="the product pipeline with pipeline.alias_check on (sharp optics)")
+    parser.add_argument("--no-alias-check", dest="alias_check", action="store_false",
+                        help="the product pipeline with pipeline.alias_check off (before/after)")
     args = parser.parse_args(argv)
     summaries = [evaluate_recording(r, args.stages, args.plots, args.subpixel, args.alias_check)
                  for r in args.recordings]

@@ -16,15 +16,20 @@ clean texture, 40 % at 1 %, against 32-39 % for the Nyquist-energy statistics.
 
 What it adds: `AliasCheck.sigma_px()` = GAIN x the *persistent* disagreement, |mean of the recent
 d(window) - d(check window)| less two of its standard errors, once that exceeds DEADZONE_PX, else
-0. Persistent because aliasing bias at a ship's slowly changing disparity persists from pair to
-pair, while the small window's own noise and phase-dependent errors average out (its RMS, tried
-first, widened sigma 14x on tools/evaluate sharp-periodic, where the 15-px window was barely
-biased). GAIN 1: the median of |error(15)| / |d15 - d9| on the bench's biased windows is 1.0-1.2.
-It is a separate, additive disparity-variance term: the fix's disparity sigma is
-hypot(filter sigma, this) (edge.pipeline `Pipeline._fixes`), so other sigma terms (calibration,
-row sigma) compose with it. What it does not do: the disagreement detects aliasing better than it
-sizes the 15-px window's bias (README, "Sharp optics"), so it is opt-in (`pipeline.alias_check`,
-one more match per track and pair) and off by default.
+0, and at most MAX_SIGMA_PX. Persistent because aliasing bias at a ship's slowly changing
+disparity persists from pair to pair, while the small window's own noise and phase-dependent
+errors average out (its RMS, tried first, widened sigma 14x on tools/evaluate sharp-periodic).
+The check window is 4 px smaller (15 -> 11), chosen by measurement in the pipeline (README,
+"Sharp optics and periodic detail"): a 9-px window is itself aliased and far off (+0.4 px on
+sharp-decks), so its disagreement sized the 9-px window's bias, not the product's, and widened
+the sigma 2-10x; 23- and 27-px windows are biased alike with the 15-px one and never disagree;
+the 11-px one disagrees by about the 15-px window's bias. The ceiling (0.1 px, a 15-px window's
+bias seldom exceeds it in the pipeline's scenarios) keeps a check window that slipped to another
+alias from making the fix useless. It is a separate, additive disparity-variance term: the fix's
+disparity sigma is hypot(filter sigma, this) (edge.pipeline `Pipeline._fixes`), so other sigma
+terms (calibration, row sigma) compose with it. On by default (`pipeline.alias_check`, one more
+11x11 match per track and pair); on blurred optics it stays quiet (akashi-crossing: the same
+figures).
 """
 
 from __future__ import annotations
@@ -34,11 +39,12 @@ from collections import deque
 
 from edge.core.match import Match
 
-CHECK_WINDOW_DELTA = 6  # the check window is this much smaller (15 -> 9)
+CHECK_WINDOW_DELTA = 4  # the check window is this much smaller (15 -> 11)
 MIN_CHECK_WINDOW = 7
 DEADZONE_PX = 0.03  # persistent disagreement that clean texture stays below (bench-core "aliasing")
 GAIN = 1.0  # alias sigma = GAIN x persistent disagreement
 HISTORY = 20  # recent disagreements kept
+MAX_SIGMA_PX = 0.1  # the term's ceiling, px (module doc)
 MIN_SAMPLES = 3  # before the term counts
 
 
@@ -78,4 +84,6 @@ class AliasCheck:
     def sigma_px(self) -> float:
         """The additive disparity sigma (px) for aliasing bias: 0 while the windows agree."""
         persistent = self.persistent_px()
-        return GAIN * persistent if persistent is not None and persistent > DEADZONE_PX else 0.0
+        if persistent is None or persistent <= DEADZONE_PX:
+            return 0.0
+        return min(MAX_SIGMA_PX, GAIN * persistent)

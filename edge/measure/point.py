@@ -334,7 +334,7 @@ class TrackPoint(PointFilter):
         assert isinstance(m, Match)  # the answer to a StereoMatch
         self.match = m
         if self.s.alias_check and m.valid:
-            check = yield self._check_request(m)
+            check = yield self._check_request(m, left, right, rect)
             assert isinstance(check, Match)  # the answer to a StereoMatch
             self.alias.add(m, check)
         clean = m.valid and not self._mixed(m.cost)
@@ -352,16 +352,13 @@ class TrackPoint(PointFilter):
         if self.followed or self.template_age == 0:
             self._fit_column()  # only positions the tracker measured enter the motion fit
 
-    def _check_request(self, m: Match) -> StereoMatch:
-        """The aliasing cross-check: the same point in the main request's patches, a smaller window,
-        searched around the main match (edge.measure.aliascheck)."""
-        assert isinstance(self._last_request, StereoMatch)
-        r, w = self._last_request, check_window(self.s.window)
-        trim = (self.s.window - w) // 2
+    def _check_request(self, m: Match, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> StereoMatch:
+        """The aliasing cross-check: the same point with the check window (edge.measure.aliascheck),
+        searched around the main match."""
+        w = check_window(self.s.window)
         settings = replace(self.match_settings, window=w, search_radius=2)
-        rows = slice(trim, r.left.shape[0] - trim)
-        return StereoMatch(r.left[rows], r.right[rows], r.x, r.y - trim, r.max_disparity, m.disparity_px,
-                           settings)
+        return stereo_request(replace(self.s, window=w), left, right, rect, self.u, self.v, m.disparity_px,
+                              settings)
 
     def _mixed(self, cost: float) -> bool:
         """A match much worse than this track's typical one: the window holds two objects at

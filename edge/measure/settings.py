@@ -37,4 +37,4 @@ class PointSettings:
     follow_every: int = 1  # run the point tracker every n-th pair (the motion fit carries it between)
     baseline_m: float = 0.0  # with focal_px: bounds the image motion and disparity rates (0: no bound)
     focal_px: float = 0.0
-    alias_check: bool = False  # cross-check each match with a smaller window (edge.measure.aliascheck)
+    alias_check: bool = True  # cross-check each match with a smaller window (edge.measure.aliascheck)

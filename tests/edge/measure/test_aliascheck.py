@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from edge.core.match import Match, match_point
-from edge.measure.aliascheck import DEADZONE_PX, GAIN, AliasCheck, check_window
+from edge.measure.aliascheck import DEADZONE_PX, GAIN, MAX_SIGMA_PX, AliasCheck, check_window
 from edge.sim import synth
 
 WHOLE, WINDOW = 4, 15
@@ -56,7 +56,7 @@ def test_clean_blurred_texture_adds_no_sigma(seed: int) -> None:
 def test_on_aliased_periodic_detail_the_check_speaks_where_the_bias_is_and_widens_over_it() -> None:
     """Sharp periodic detail at a steady fractional disparity (a ship at a steady range), 5 noisy
     pairs per case: the biased cases (|mean error| > 3 predicted sigma) are many; the check speaks
-    almost only on them, on a good share of them, and its widened sigma mostly covers the bias.
+    almost only on them, on a good share of them, and its uncapped term covers the bias on half.
     (bench-core's "aliasing" section has the figures; the check cannot see a window biased whole.)"""
     biased = spoke = spoke_biased = covered = 0
     for seed in range(8):
@@ -70,14 +70,17 @@ def test_on_aliased_periodic_detail_the_check_speaks_where_the_bias_is_and_widen
             if check.sigma_px() > 0.0:
                 spoke += 1
                 spoke_biased += bias > 3.0 * sigma
-                covered += bias <= 3.0 * math.hypot(sigma, check.sigma_px())
+                # the uncapped term sizes the window's bias; the product caps it (the pipeline's
+                # 15-px windows are seldom biased whole by more: README, "Sharp optics")
+                assert check.sigma_px() <= MAX_SIGMA_PX
+                covered += bias <= 3.0 * math.hypot(sigma, GAIN * (check.persistent_px() or 0.0))
     assert biased >= 6  # the problem is there: the matcher's own sigma does not cover it
     assert spoke >= biased / 3 and spoke_biased >= 0.8 * spoke
-    assert covered >= 0.7 * spoke
+    assert covered >= 0.5 * spoke  # 6 of 10 with the 11-px check (the 9-px one: 0.7, but see the module)
 
 
 def test_window_and_invalid_matches() -> None:
-    assert check_window(15) == 9 and check_window(9) == 7 and check_window(7) == 7
+    assert check_window(15) == 11 and check_window(9) == 7 and check_window(7) == 7
     check = AliasCheck()
     good = Match(True, 4.0, 1.0, 0.01)
     check.add(good, Match(False, math.nan, math.nan, math.inf))
@@ -90,6 +93,6 @@ def test_window_and_invalid_matches() -> None:
     for d in (3.8, 3.79, 3.81, 3.8):  # one window persistently 0.2 px off the other
         check.add(good, Match(True, d, 1.0, 0.01))
     assert 0.18 < check.persistent_px() < 0.2  # type: ignore[operator]
-    assert math.isclose(check.sigma_px(), GAIN * (check.persistent_px() or 0.0))
+    assert math.isclose(check.sigma_px(), min(MAX_SIGMA_PX, GAIN * (check.persistent_px() or 0.0)))
     check.clear()
     assert check.rms_px() is None
