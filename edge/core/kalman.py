@@ -57,12 +57,13 @@ glint burst is as self-consistent as the truth.                                 
 
 Reported sigma (`sigma_px`), every term from the design:
 
-    sigma^2 = c^2 (P_k + C_m - C_0) + sigma_floor^2 + LSB^2 / 12                        (eq. K.1)
+    sigma^2 = c^2 g (P_k + C_m - C_0) + sigma_floor^2 + LSB^2 / 12                      (eq. K.1)
 
 P_k + C_m - C_0 the variance of d coasted m frames from the covariance of update k (eq. K.6 with
 j = m, without sigma_n^2), sigma_floor the matcher's sub-pixel bias bound (a systematic error the
 filter passes at DC gain 1), LSB^2/12 the Q8 rounding of the output, c the coverage factor (1 by default;
-eq. K.3 in `edge.core.kalman_design`, from the steady-state error's correlation, eq. K.2).
+eq. K.3 in `edge.core.kalman_design`, from the steady-state error's correlation, eq. K.2), g the
+correlated-noise gain of the matcher's error (eq. K.8 there; 1 for white noise).
 """
 
 from __future__ import annotations
@@ -226,7 +227,8 @@ class _CVFilter(ABC):
         m = self.misses
         var = pdd + m * pdv2 + m * m * pvv + d.coast_q[min(m, len(d.coast_q) - 1)]
         # eq. K.1: random part (times the coverage factor, eq. K.3), bias floor, Q8 output rounding
-        var = d.coverage**2 * var + d.sigma_floor_px**2 + Q8_ROUNDING_VAR
+        # eq. K.8: the random part for the matcher's correlated error
+        var = d.coverage**2 * (d.corr_gain * var) + d.sigma_floor_px**2 + Q8_ROUNDING_VAR
         return _sqrt(var)
 
 

@@ -32,6 +32,22 @@ For reports, `accel_lag_px` is the alpha-beta lag to a *sustained* d'' = sigma_a
 
 It is not added: sigma_a is a white-noise level (already in P_k), tuned well above a ship's
 real d'', and the sustained-acceleration reading would make sigma ~4x the observed error.
+
+The matcher's error is not white: it follows the window's texture as the ship's pose changes, so
+successive pairs at 10 fps share much of it, at 1 fps hardly any. Modelled as AR(1) with lag-1
+correlation rho = exp(-1 / (fs corr_s)), the error the (white-model) gains leave in steady state
+follows from the discrete Lyapunov equation of the augmented state [e_d, e_v, n],
+
+    x' = [[(I - K H) F, K rho], [0, rho]] x + sqrt(1 - rho^2) [K; 1] xi
+    corr_gain = Var_AR(e_d) / Var_white(e_d),  both for var(n) = sigma_meas^2              (eq. K.8)
+
+The reported variance is P_k times corr_gain: ~1 at 1 fps, 2-4 at 10 fps for the deep designs,
+which average over many correlated samples. (Compared at the same difference variance, which the
+track's scatter measures, no correlation time fitted the recordings: at 0.15 s approach-720 had
+1.54 RMS(e / sigma) and 91 % within 3 sigma while small-boat-fog fell to 0.53. The error is not one
+AR(1) process, and the ladder's rung already sits above the scatter. corr_s is therefore a
+fitted figure, docs/decisions.md. `edge.measure.ranging` adds, for a design below the configured
+acceleration, the share rho of the configured design's steady-state variance as a floor.)
 """
 
 from __future__ import annotations
@@ -39,6 +55,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import solve_discrete_lyapunov
 from scipy.stats import chi2
 
 from edge.core.fixedpoint import AB_BITS, VAR_BITS, to_q
@@ -82,6 +99,8 @@ class KalmanDesign:
     rho1: float = 1.0          # lag-1 correlation of the steady-state error of d (eq. K.2)
     coverage: float = 1.0      # factor on the random part of sigma_px (eq. K.3); 1 = plain 1-sigma
     accel_lag_px: float = 0.0  # steady-state lag if d'' = sigma_a were sustained (eq. K.4), for reports
+    corr_gain: float = 1.0     # eq. K.8: error variance for AR(1) measurement noise over the white model's
+    corr_rho: float = 0.0      # lag-1 correlation of that measurement noise, exp(-1 / (fs corr_s))
 
     def table_index(self, k: int) -> int:
         return min(k, len(self.alpha) - 1)
@@ -90,7 +109,7 @@ class KalmanDesign:
 def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, *,
                   rate_prior_pxps: float | None = None, sigma_floor_px: float = 0.01, gate_sigma: float = 3.0,
                   reacquire_s: float = 3.0, init_samples: int = 5, bound_s: float = 0.0,
-                  bound_risk: float = 0.01, young_restart: bool = True) -> KalmanDesign:
+                  bound_risk: float = 0.01, young_restart: bool = True, corr_s: float = 0.0) -> KalmanDesign:
     """Run the Riccati recursion of the CV model from the line-fit start to its steady state and
     tabulate it.
 
@@ -101,7 +120,9 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
     bound_s, bound_risk: 0 (default) reports the plain 1-sigma. bound_s > 0 scales the random
     part of the reported sigma by the coverage factor of eq. K.3, so that 3 sigma_px bounds
     every estimate of a bound_s long track except with probability bound_risk.
-    young_restart: restart an unconfirmed start on n consistent refused samples (eq. K.7)."""
+    young_restart: restart an unconfirmed start on n consistent refused samples (eq. K.7).
+    corr_s: correlation time of the measurement error (s); > 0 scales the reported variance by
+    eq. K.8's corr_gain (the gains stay the white model's)."""
     if fs_hz <= 0 or sigma_meas_px <= 0 or sigma_accel_pxps2 <= 0:
         raise ValueError("fs_hz, sigma_meas_px and sigma_accel_pxps2 must be positive")
     if init_samples < 3:
@@ -145,6 +166,8 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
         coverage = max(1.0, float(np.sqrt(2.0 * np.log(max(excursions / bound_risk, 1.0)))) / 3.0)
     # eq. K.4: a sustained d'' = a leaves the alpha-beta filter a T^2 (1 - alpha) / beta behind
     accel_lag = sigma_accel_pxps2 / fs_hz**2 * (1.0 - alpha[-1]) / beta[-1]
+    corr_rho = float(np.exp(-1.0 / (fs_hz * corr_s))) if corr_s > 0 else 0.0
+    corr_gain = correlated_noise_gain(alpha[-1], beta[-1], corr_rho)
     g2 = gate_sigma**2
     # eq. K.6: j predictions after update k: P_dd + 2 j P_dv + j^2 P_vv + q sum_{i<j} (i + 1/2)^2
     cov3 = np.array([[c[0, 0], 2 * c[0, 1], c[1, 1]] for c in cov])
@@ -159,5 +182,25 @@ def design_kalman(fs_hz: float, sigma_meas_px: float, sigma_accel_pxps2: float, 
                         coast_q, tuple(to_q(x, COV_BITS) for x in coast_q), to_q(r, COV_BITS), to_q(g2, 8),
                         tuple(to_q(x, COV_BITS) for x in np.minimum.accumulate(pred_arr)),
                         to_q(chi2_lim, VAR_BITS), (to_q(gain[0], AB_BITS), to_q(gain[1], AB_BITS)),
-                        (float(gain[0]), float(gain[1])), young, rho1, coverage, float(accel_lag))
+                        (float(gain[0]), float(gain[1])), young, rho1, coverage, float(accel_lag),
+                        corr_gain, corr_rho)
+
+
+def _ar1_error_var(a: float, b: float, rho: float) -> float:
+    """Steady-state variance of d's error for the alpha-beta gains (a, b) driven by AR(1) measurement
+    noise of lag-1 correlation rho and unit variance (eq. K.8)."""
+    k = np.array([a, b])
+    m = np.zeros((3, 3))
+    m[:2, :2] = (np.eye(2) - np.outer(k, [1.0, 0.0])) @ np.array([[1.0, 1.0], [0.0, 1.0]])
+    m[:2, 2], m[2, 2] = k * rho, rho
+    g = np.sqrt(1.0 - rho * rho) * np.array([a, b, 1.0])   # n' = rho n + sqrt(1 - rho^2) xi, var(n) = 1
+    p = solve_discrete_lyapunov(m, np.outer(g, g))
+    return float(p[0, 0])
+
+
+def correlated_noise_gain(a: float, b: float, rho: float) -> float:
+    """eq. K.8: the error variance the gains leave when the measurement noise is AR(1) with lag-1
+    correlation rho, over the white model's, both for the same noise variance (the design's
+    sigma_meas). 1 for rho = 0."""
+    return _ar1_error_var(a, b, rho) / _ar1_error_var(a, b, 0.0)
 

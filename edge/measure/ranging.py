@@ -13,6 +13,11 @@ from dataclasses import replace
 from edge.core.kalman import KalmanDesign, design_kalman
 from edge.measure.settings import PointSettings
 
+# Correlation time of the matcher's disparity error (s), for the reported sigma (eq. K.8 of
+# edge.core.kalman_design): fitted on the six calibration recordings (docs/decisions.md); 0.12 s
+# puts RMS(e / sigma) in 0.6-1.5 on all of them (offline: 0.08 s two-ships-crossing 1.53, 0.15 s glints 0.58).
+MATCH_ERROR_CORR_S = 0.12
+
 
 class Designs:
     """The Kalman tables of one setting, computed once (lazily per noise level) and shared by all tracks.
@@ -36,17 +41,22 @@ class Designs:
         pose over seconds: tools/evaluate --diagnose), so its innovations spread more than its
         white-noise model says. It keeps the configured design's gate (its innovation covariance
         tables, eq. K.6 of edge.core.kalman: the same samples are refused; the accepted ones move
-        the estimate less) and reports no less than the configured design's steady-state sigma
-        (sigma_floor_px). Its own, tighter gate refuses a noisy far track's own samples and lets it
-        coast off (docs/decisions.md)."""
+        the estimate less). Its own, tighter gate refuses a noisy far track's own samples and lets it
+        coast off (docs/decisions.md). Its reported sigma is its own covariance times the
+        correlated-noise gain of eq. K.8 (MATCH_ERROR_CORR_S), with the lag-1 correlated share rho of
+        the configured design's steady-state variance as its floor (the whole of it made the sigma
+        2-3x the error at 2-5 km at 1 fps, where rho ~ 0, and too small at 1-2 km at 10 fps)."""
         s, key = self.s, (sigma_px, accel_pxps2 or self.s.sigma_accel_pxps2)
         if key not in self._tables:
             design = design_kalman(s.fps, sigma_px, key[1], gate_sigma=s.gate_sigma,
-                                   reacquire_s=s.reacquire_s)
+                                   reacquire_s=s.reacquire_s, corr_s=MATCH_ERROR_CORR_S)
             if key[1] < s.sigma_accel_pxps2:
                 top = self.disparity(sigma_px)
-                design = replace(design, sigma_floor_px=math.sqrt(top.post_var[-1] + top.sigma_floor_px**2),
-                                 cov_q36=top.cov_q36, coast_q_q36=top.coast_q_q36)
+                # the share rho of the configured design's steady-state variance is correlated from
+                # pair to pair and stays as a floor that longer averaging cannot remove (eq. K.8)
+                floor = math.sqrt(design.corr_rho * top.post_var[-1] + top.sigma_floor_px**2)
+                design = replace(design, sigma_floor_px=floor, cov_q36=top.cov_q36,
+                                 coast_q_q36=top.coast_q_q36)
             self._tables[key] = design
         return self._tables[key]
 

@@ -10,6 +10,7 @@ import pytest
 from scipy.stats import norm
 
 from edge.core.kalman import Q8_ROUNDING_VAR, DisparityKalman, DisparityKalmanFloat, design_kalman
+from edge.core.kalman_design import correlated_noise_gain
 from edge.sim import tracksim as ts
 
 BOUND = {"bound_s": 600.0, "bound_risk": 0.05}
@@ -39,6 +40,40 @@ def test_error_model_matches_simulation(fs: float, sa: float) -> None:
         excursions = np.sum(out[1:] & ~out[:-1])
         predicted = len(e) * np.arccos(design.rho1) / np.pi * np.exp(-u**2 / 2)
         assert 0.75 < excursions / predicted < 1.25
+
+
+@pytest.mark.parametrize("fs,sa,corr_s", [(10.0, 0.05, 0.15), (10.0, 0.003125, 0.3), (1.0, 0.05, 1.0)])
+def test_correlated_noise_gain_matches_simulation(fs: float, sa: float, corr_s: float) -> None:
+    # eq. K.8 against the filter itself: a constant-rate truth under AR(1) noise and under white noise
+    # of the same variance; the error variances' ratio is the gain
+    design = design_kalman(fs, 0.1, sa, gate_sigma=50.0, corr_s=corr_s)
+    rho, n = float(np.exp(-1.0 / (fs * corr_s))), 20_000
+    rng = np.random.default_rng(12)
+    white = 0.1 * rng.standard_normal(n)
+    ar = np.empty(n)
+    ar[0] = white[0]
+    for i in range(1, n):
+        ar[i] = rho * ar[i - 1] + np.sqrt(1 - rho**2) * white[i]
+    truth = 20.0 + 0.001 * np.arange(n)
+    var = []
+    for noise in (ar, white):
+        f = DisparityKalmanFloat(design)
+        est = np.array([f.update(float(z)).disparity_px for z in truth + noise])
+        var.append(((est - truth)[2000:]).var())
+    assert design.corr_gain > 1.0 and design.corr_rho == pytest.approx(rho)
+    assert var[0] / var[1] == pytest.approx(design.corr_gain, rel=0.1)
+    # the reported sigma carries the gain on its random part (eq. K.1)
+    plain, f = DisparityKalmanFloat(design_kalman(fs, 0.1, sa, gate_sigma=50.0)), DisparityKalmanFloat(design)
+    for z in truth[:300]:
+        ep, ec = plain.update(float(z)), f.update(float(z))
+    fixed = design.sigma_floor_px**2 + Q8_ROUNDING_VAR
+    assert ec.sigma_px**2 - fixed == pytest.approx(design.corr_gain * (ep.sigma_px**2 - fixed))
+
+
+def test_correlated_noise_gain_known_answers() -> None:
+    assert correlated_noise_gain(0.3, 0.05, 0.0) == pytest.approx(1.0)
+    gains = [correlated_noise_gain(0.2, 0.02, r) for r in (0.2, 0.5, 0.8)]
+    assert 1.0 < gains[0] < gains[1] < gains[2]
 
 
 def test_coverage_factor() -> None:
