@@ -33,7 +33,8 @@ the hull (`jumped`) or a restarted disparity filter re-seats at once.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections import deque
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -47,6 +48,7 @@ INIT_SPEED_SIGMA_MPS = 10.0  # the velocity's prior 1-sigma per axis at the firs
 GATE_NIS = 16.0  # chi-square, 2 dof: a measurement beyond is an outlier (p = 3e-4)
 RESEAT_AFTER = 3  # outliers in a row before the position is re-seated on the measurement
 MIN_SPEED_FOR_COURSE_MPS = 0.25  # a course of a slower target is not reported (about 0.5 kn)
+HOLD_FACTOR = 1.5  # once shown, SOG/COG stay shown until their sigma exceeds this times the bound
 
 
 @dataclass(frozen=True)
@@ -58,6 +60,7 @@ class GroundSettings:
     correlation_s: float = 1.0  # time constant of the matcher's correlated error (R inflation)
     max_sog_sigma_kn: float = 0.75  # SOG reported once its 1-sigma is at most this
     max_cog_sigma_deg: float = 5.5  # COG reported once its 1-sigma is at most this
+    hold_factor: float = HOLD_FACTOR  # ... and kept until it exceeds hold_factor times the bound
 
 
 def measurement_cov(bearing_rad: float, sigma_along_m: float, sigma_across_m: float) -> np.ndarray:
@@ -242,6 +245,10 @@ class GroundTrack:
 
 # ---------------------------------------------------------------- per track, from the pipeline's points
 COLUMN_NOISE_PX = 0.05  # the least scatter a followed column is credited with (bearing sigma)
+BOX_FIT_S = 20.0  # the box centre's scatter is its RMS residual about a line over this much of the track
+BOX_CENTRE_FLOOR_PX = 0.5  # the least scatter a box centre is credited with (whole-pixel box edges)
+BOX_CENTRE_PRIOR_PX = 1.0  # ... and its scatter before BOX_MIN_SAMPLES detections (slow-5km: 0.95 px)
+BOX_MIN_SAMPLES = 5
 DISPARITY_NOISE_FLOOR_PX = 0.02  # the least disparity scatter a fix is credited with (range sigma)
 
 
@@ -253,17 +260,17 @@ class PairFix:
     cov: np.ndarray
 
 
-def column_noise_px(columns: list[tuple[int, float]]) -> float:
-    """RMS residual of the followed columns about their least-squares line (>= COLUMN_NOISE_PX;
-    the floor alone with fewer than 5 follows)."""
+def column_noise_px(columns: list[tuple[float, float]], floor_px: float = COLUMN_NOISE_PX) -> float:
+    """RMS residual of (time or frame, column) samples about their least-squares line (>= floor_px;
+    the floor alone with fewer than 5 samples)."""
     if len(columns) < 5:
-        return COLUMN_NOISE_PX
+        return floor_px
     t = np.array([c[0] for c in columns], float)
     u = np.array([c[1] for c in columns], float)
     a = np.vstack([t - t[-1], np.ones_like(t)]).T
     coef, *_ = np.linalg.lstsq(a, u, rcond=None)
     res = u - a @ coef
-    return max(COLUMN_NOISE_PX, float(math.sqrt(res @ res / (len(u) - 2))))
+    return max(floor_px, float(math.sqrt(res @ res / (len(u) - 2))))
 
 
 def pair_fix(east_m: float, north_m: float, sigma_d_px: float, sigma_u_px: float, focal_px: float,
@@ -281,6 +288,9 @@ def pair_fix(east_m: float, north_m: float, sigma_d_px: float, sigma_u_px: float
 class _Entry:
     track: GroundTrack
     updates: int = 0  # the point's disparity-filter updates at the last pair (a drop: it restarted)
+    sog_shown: bool = False  # the reporting latch (`GroundTracks._latch`)
+    cog_shown: bool = False
+    centres: deque[tuple[float, float]] = field(default_factory=deque)  # (t s, detected box centre px)
 
 
 class GroundTracks:
@@ -303,19 +313,56 @@ class GroundTracks:
             else:
                 reseat = (jumped or restarted) and entry.track.started
                 entry.track.update(t_s, fix.en_m, fix.cov, reseat=reseat)
+            self._latch(entry)
+
+    def _latch(self, entry: _Entry) -> None:
+        """Reporting with hysteresis: SOG (COG) is first shown when its sigma meets its bound, and
+        stays shown until the sigma exceeds `hold_factor` times the bound. A short rise of the
+        manoeuvre mode's probability (a few pairs of unlucky innovations) widens the sigma a little
+        past the bound; withholding a speed already known to the bound's accuracy for it would
+        blank the field for seconds and help nobody. The sigma reported beside the value stays the
+        filter's own, so a VTS sees how unsure it is meanwhile; a real manoeuvre widens it past the
+        hold limit within seconds (the manoeuvre model's q) and the field empties."""
+        est = entry.track.speed_course()
+        if est is None:
+            entry.sog_shown = entry.cog_shown = False
+            return
+        _, speed_sd, _, course_sd = est
+        sog_kn, cog_deg = speed_sd / KNOT_MPS, math.degrees(course_sd)
+        hold = max(self.s.hold_factor, 1.0)
+        sog_limit = self.s.max_sog_sigma_kn * (hold if entry.sog_shown else 1.0)
+        entry.sog_shown = sog_kn <= sog_limit
+        cog_limit = self.s.max_cog_sigma_deg * (hold if entry.cog_shown else 1.0)
+        entry.cog_shown = entry.sog_shown and cog_deg <= cog_limit
+
+    def centre_noise_px(self, track_id: int, t_s: float, centre_px: float, detected: bool) -> float:
+        """The 1-sigma of a track's box-centre column (the bearing the filter takes, see
+        `Pipeline._ground_step`): the RMS residual about a least-squares line of the centres its
+        detections gave over the last BOX_FIT_S (>= BOX_CENTRE_FLOOR_PX; BOX_CENTRE_PRIOR_PX with fewer
+        than BOX_MIN_SAMPLES). `detected`: the centre is this pair's detection box (else it is the last
+        one carried by the followed point, and is not entered)."""
+        entry = self._by_id.setdefault(track_id, _Entry(GroundTrack(self.s)))
+        if detected:
+            entry.centres.append((t_s, centre_px))
+        while entry.centres and entry.centres[0][0] < t_s - BOX_FIT_S:
+            entry.centres.popleft()
+        if len(entry.centres) < BOX_MIN_SAMPLES:
+            return BOX_CENTRE_PRIOR_PX
+        return max(BOX_CENTRE_FLOOR_PX, column_noise_px(list(entry.centres), floor_px=0.0))
 
     def motion(self, track_id: int) -> Motion | None:
-        """The track's east/north velocity and its speed and course sigmas, with whether each meets its
-        configured bound (the speed's bound holds for both); None before its first fix."""
+        """The track's east/north velocity and its speed and course sigmas, with whether each is shown
+        (its sigma met the configured bound, with `_latch`'s hysteresis; the speed's holds for
+        both); None before its first fix."""
         entry = self._by_id.get(track_id)
         est = None if entry is None else entry.track.speed_course()
         vel = None if entry is None else entry.track.velocity()
         if est is None or vel is None:
             return None
         _, speed_sd, _, course_sd = est
-        sog_ok = speed_sd <= self.s.max_sog_sigma_kn * KNOT_MPS
-        cog_ok = sog_ok and math.degrees(course_sd) <= self.s.max_cog_sigma_deg
-        return Motion(vel[0].copy(), speed_sd / KNOT_MPS, math.degrees(course_sd), sog_ok, cog_ok)
+        assert entry is not None
+        return Motion(vel[0].copy(), speed_sd / KNOT_MPS, math.degrees(course_sd), entry.sog_shown,
+                      entry.cog_shown)
 
 
 @dataclass(frozen=True)
@@ -325,5 +372,5 @@ class Motion:
     velocity_en_mps: np.ndarray  # (east, north)
     sog_sigma_kn: float
     cog_sigma_deg: float  # inf below MIN_SPEED_FOR_COURSE_MPS
-    sog_ok: bool  # the speed's sigma meets the bound: report SOG
-    cog_ok: bool  # ... and the course's: report COG
+    sog_ok: bool  # report SOG: its sigma met the bound (and has not since passed the hold limit)
+    cog_ok: bool  # ... and likewise the course: report COG
