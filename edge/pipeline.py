@@ -40,7 +40,7 @@ from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
 from edge.fix import ShipFix, TrackStatus
 from edge.measure.detect import Detector
-from edge.measure.groundtrack import GroundSettings, GroundTracks, PairFix, pair_fix
+from edge.measure.groundtrack import GroundSettings, GroundTracks, PairFix, column_noise_px, pair_fix
 from edge.measure.settings import FILTERS, SUBPIXELS, PointSettings
 from edge.measure.tracks import TableSettings, Track, TrackTable
 
@@ -231,27 +231,28 @@ class Pipeline:
     def _ground_step(self, tracks: list[Track], t_ns: int) -> None:
         """Each track's own measurement of this pair into its ground-plane filter
         (edge.measure.groundtrack): the raw disparity the disparity filter accepted (not the filter's
-        output, whose errors are correlated in time) on the column of the ship's box centre. Not the
-        followed point's column: its template is re-taken every second, so the point slides along the
-        hull (slow-5km: 14 px in 250 s, an apparent 0.06 m/s across the line of sight), while the
-        detector's box centre stays on the ship's centre (0.95 px white scatter there). Between
-        detections the box is the last one carried by the point."""
+        output, whose errors are correlated in time) on the followed point's column corrected by the
+        ship's box centre (`GroundTracks.column`): the point's template is re-taken every second, so
+        it slides along the hull (slow-5km: 14 px in 250 s, an apparent 0.06 m/s across the line of
+        sight), while the detector's box centre stays on the ship's centre (0.95 px white scatter
+        there)."""
         f, b = self.rect.f_px, self.rig.baseline_m
         fixes: dict[int, tuple[PairFix | None, bool, int]] = {}
         measured = [t for t in tracks if t.point.accepted and t.point.raw_disparity is not None
                     and t.point.raw_disparity > 0.0 and (t.point.followed or t.point.jumped != (0.0, 0.0))]
         if measured:
-            centre = [0.5 * float(t.box[0] + t.box[2]) for t in measured]
-            uv = np.array([[c, t.point.v] for c, t in zip(centre, measured, strict=True)])
+            cols = [self.ground.column(t.id, t_ns / 1e9, t.point.u, column_noise_px(list(t.point.columns)),
+                                       0.5 * float(t.box[0] + t.box[2]), t.det_frame == t.point.frame,
+                                       t.point.jumped != (0.0, 0.0)) for t in measured]
+            uv = np.array([[c, t.point.v] for (c, _), t in zip(cols, measured, strict=True)])
             raw = np.array([t.point.raw_disparity for t in measured])
             xy_l = self.rect.rect_to_normalised(uv)
             xy_r = xy_l - np.stack([raw / f, np.zeros_like(raw)], -1)
             world = triangulate_normalised(xy_l, xy_r, b)  # eq. 4.1
             enu = world_to_enu(world, self.site.heading_deg)
-            for t, c, (east, north, _) in zip(measured, centre, enu.tolist(), strict=True):
+            for t, (_, sigma_u), (east, north, _) in zip(measured, cols, enu.tolist(), strict=True):
                 p = t.point
                 sigma_d = p.scatter_px() or p.noise_px
-                sigma_u = self.ground.centre_noise_px(t.id, t_ns / 1e9, c, t.det_frame == p.frame)
                 fixes[t.id] = (pair_fix(east, north, sigma_d, sigma_u, f, b),
                                p.jumped != (0.0, 0.0), p.updates)
         for t in tracks:

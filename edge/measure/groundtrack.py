@@ -247,8 +247,7 @@ class GroundTrack:
 COLUMN_NOISE_PX = 0.05  # the least scatter a followed column is credited with (bearing sigma)
 BOX_FIT_S = 20.0  # the box centre's scatter is its RMS residual about a line over this much of the track
 BOX_CENTRE_FLOOR_PX = 0.5  # the least scatter a box centre is credited with (whole-pixel box edges)
-BOX_CENTRE_PRIOR_PX = 1.0  # ... and its scatter before BOX_MIN_SAMPLES detections (slow-5km: 0.95 px)
-BOX_MIN_SAMPLES = 5
+BOX_MIN_SAMPLES = 5  # detections within BOX_FIT_S before the box centre is the column
 DISPARITY_NOISE_FLOOR_PX = 0.02  # the least disparity scatter a fix is credited with (range sigma)
 
 
@@ -291,6 +290,7 @@ class _Entry:
     sog_shown: bool = False  # the reporting latch (`GroundTracks._latch`)
     cog_shown: bool = False
     centres: deque[tuple[float, float]] = field(default_factory=deque)  # (t s, detected box centre px)
+    offset_px: float | None = None  # the box centre's last known offset from the followed point
 
 
 class GroundTracks:
@@ -335,20 +335,32 @@ class GroundTracks:
         cog_limit = self.s.max_cog_sigma_deg * (hold if entry.cog_shown else 1.0)
         entry.cog_shown = entry.sog_shown and cog_deg <= cog_limit
 
-    def centre_noise_px(self, track_id: int, t_s: float, centre_px: float, detected: bool) -> float:
-        """The 1-sigma of a track's box-centre column (the bearing the filter takes, see
-        `Pipeline._ground_step`): the RMS residual about a least-squares line of the centres its
-        detections gave over the last BOX_FIT_S (>= BOX_CENTRE_FLOOR_PX; BOX_CENTRE_PRIOR_PX with fewer
-        than BOX_MIN_SAMPLES). `detected`: the centre is this pair's detection box (else it is the last
-        one carried by the followed point, and is not entered)."""
+    def column(self, track_id: int, t_s: float, point_px: float, point_noise_px: float, centre_px: float,
+               detected: bool, jumped: bool) -> tuple[float, float]:
+        """The column (px) the track's fix takes and its 1-sigma (see `Pipeline._ground_step`). Once
+        BOX_MIN_SAMPLES detections lie within the last BOX_FIT_S: the ship's box centre (`centre_px`,
+        between detections the last box carried by the followed point), its sigma the detected
+        centres' RMS residual about their line (>= BOX_CENTRE_FLOOR_PX). The followed point is
+        precise from pair to pair but slides along the hull as its template is re-taken; the box
+        centre stays on the ship but scatters by a pixel. Before that (a young track, or detections
+        lost): the followed point plus the box centre's offset from it when last known, with the
+        point's own scatter: over a few seconds the slide is a few hundredths of a pixel. The switch
+        steps the column by about the box's scatter, which the sigma then allows. `detected`: the
+        centre is this pair's detection box; `jumped`: the point moved to another part of the hull."""
         entry = self._by_id.setdefault(track_id, _Entry(GroundTrack(self.s)))
+        if jumped:
+            entry.centres.clear()
+            entry.offset_px = None
         if detected:
             entry.centres.append((t_s, centre_px))
         while entry.centres and entry.centres[0][0] < t_s - BOX_FIT_S:
             entry.centres.popleft()
-        if len(entry.centres) < BOX_MIN_SAMPLES:
-            return BOX_CENTRE_PRIOR_PX
-        return max(BOX_CENTRE_FLOOR_PX, column_noise_px(list(entry.centres), floor_px=0.0))
+        if len(entry.centres) >= BOX_MIN_SAMPLES:
+            entry.offset_px = centre_px - point_px
+            return centre_px, max(BOX_CENTRE_FLOOR_PX, column_noise_px(list(entry.centres), floor_px=0.0))
+        if entry.offset_px is None:
+            entry.offset_px = centre_px - point_px
+        return point_px + entry.offset_px, point_noise_px
 
     def motion(self, track_id: int) -> Motion | None:
         """The track's east/north velocity and its speed and course sigmas, with whether each is shown

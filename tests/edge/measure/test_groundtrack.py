@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 from edge.measure.groundtrack import (
     BOX_CENTRE_FLOOR_PX,
-    BOX_CENTRE_PRIOR_PX,
     BOX_FIT_S,
+    BOX_MIN_SAMPLES,
     GATE_NIS,
     QUIET_Q,
     GroundSettings,
@@ -272,22 +272,36 @@ def test_the_latch_holds_between_the_bound_and_the_hold_limit() -> None:
 
 
 @settings(max_examples=15, deadline=None, phases=[Phase.generate])
-@given(st.floats(0.6, 4.0), st.floats(-30.0, 30.0), st.integers(0, 2**31))
-def test_box_centre_noise_is_the_scatter_about_its_line(sigma_px: float, rate_pxps: float, seed: int) -> None:
-    """A box centre moving at a constant image rate with white scatter sigma: the estimate is the
-    scatter (chi-square bounds for ~20 dof), the prior before five detections, the floor for a centre
-    without scatter; carried (undetected) centres are not entered and old ones leave the window."""
+@given(st.floats(0.6, 4.0), st.floats(-30.0, 30.0), st.floats(-0.2, 0.2), st.integers(0, 2**31))
+def test_the_column_is_the_box_centre_once_detections_give_its_scatter(
+        sigma_px: float, rate_pxps: float, slide_pxps: float, seed: int) -> None:
+    """A ship's box centre moving at a constant image rate with white scatter sigma, its followed point
+    sliding along the hull: a young track takes the point plus the first box offset with the point's
+    noise; from BOX_MIN_SAMPLES detections on the box centre itself, with its scatter about its line
+    (chi-square bounds for ~20 dof) as sigma; carried (undetected) centres are not entered; a jump
+    of the point starts over."""
     rng = np.random.default_rng(seed)
     tracks = GroundTracks()
-    assert tracks.centre_noise_px(1, 0.0, 100.0, True) == BOX_CENTRE_PRIOR_PX
+    first_offset = None
     est = 0.0
-    for k in range(1, 200):
-        est = tracks.centre_noise_px(1, float(k), 100.0 + rate_pxps * k + rng.normal(0.0, sigma_px), True)
-        assert tracks.centre_noise_px(1, float(k), 1e6, False) == est  # a carried centre changes nothing
+    for k in range(200):
+        centre = 100.0 + rate_pxps * k
+        point = centre - 20.0 + slide_pxps * k
+        box = centre + rng.normal(0.0, sigma_px)
+        col, est = tracks.column(1, float(k), point, 0.05, box, True, False)
+        if k == 0:
+            first_offset = box - point
+        if k < BOX_MIN_SAMPLES - 1:
+            assert col == pytest.approx(point + first_offset) and est == 0.05
+        else:
+            assert col == box
+            assert tracks.column(1, float(k), point, 0.05, 1e6, False, False)[1] == est  # not entered
     n = int(BOX_FIT_S) + 1
     lo, hi = (math.sqrt(scipy.stats.chi2.ppf(p, n - 2) / (n - 2)) for p in (1e-4, 1 - 1e-4))
     assert max(lo * sigma_px, BOX_CENTRE_FLOOR_PX) <= est <= hi * sigma_px
+    col, sd = tracks.column(1, 200.0, 500.0, 0.07, 530.0, True, True)  # jumped: a young track again
+    assert (col, sd) == (530.0, 0.07)
     exact = GroundTracks()
     for k in range(30):
-        e = exact.centre_noise_px(2, float(k), 5.0 * k, True)
+        _, e = exact.column(2, float(k), 3.0 * k, 0.05, 5.0 * k, True, False)
     assert e == BOX_CENTRE_FLOOR_PX
