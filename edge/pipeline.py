@@ -244,17 +244,17 @@ class Pipeline:
             cols = [self.ground.column(t.id, t_ns / 1e9, t.point.u, column_noise_px(list(t.point.columns)),
                                        0.5 * float(t.box[0] + t.box[2]), t.det_frame == t.point.frame,
                                        t.point.jumped != (0.0, 0.0)) for t in measured]
-            uv = np.array([[c, t.point.v] for (c, _, _), t in zip(cols, measured, strict=True)])
+            uv = np.array([[c, t.point.v] for (c, _), t in zip(cols, measured, strict=True)])
             raw = np.array([t.point.raw_disparity for t in measured])
             xy_l = self.rect.rect_to_normalised(uv)
             xy_r = xy_l - np.stack([raw / f, np.zeros_like(raw)], -1)
             world = triangulate_normalised(xy_l, xy_r, b)  # eq. 4.1
             enu = world_to_enu(world, self.site.heading_deg)
-            for t, (_, sigma_u, switched), (east, north, _) in zip(measured, cols, enu.tolist(), strict=True):
+            for t, (_, sigma_u), (east, north, _) in zip(measured, cols, enu.tolist(), strict=True):
                 p = t.point
                 sigma_d = p.scatter_px() or p.noise_px
                 fixes[t.id] = (pair_fix(east, north, sigma_d, sigma_u, f, b),
-                               p.jumped != (0.0, 0.0) or switched, p.updates)
+                               p.jumped != (0.0, 0.0), p.updates)
         for t in tracks:
             fixes.setdefault(t.id, (None, False, t.point.updates))
         self.ground.step(t_ns / 1e9, fixes)

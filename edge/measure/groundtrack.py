@@ -291,7 +291,6 @@ class _Entry:
     cog_shown: bool = False
     centres: deque[tuple[float, float]] = field(default_factory=deque)  # (t s, detected box centre px)
     offset_px: float | None = None  # the box centre's last known offset from the followed point
-    on_box: bool = False  # the column is the box centre (`GroundTracks.column`)
 
 
 class GroundTracks:
@@ -337,9 +336,8 @@ class GroundTracks:
         entry.cog_shown = entry.sog_shown and cog_deg <= cog_limit
 
     def column(self, track_id: int, t_s: float, point_px: float, point_noise_px: float, centre_px: float,
-               detected: bool, jumped: bool) -> tuple[float, float, bool]:
-        """The column (px) the track's fix takes, its 1-sigma (see `Pipeline._ground_step`) and whether
-        the position must be re-seated (the column switched to the box centre). Once
+               detected: bool, jumped: bool) -> tuple[float, float]:
+        """The column (px) the track's fix takes and its 1-sigma (see `Pipeline._ground_step`). Once
         BOX_MIN_SAMPLES detections lie within the last BOX_FIT_S: the ship's box centre (`centre_px`,
         between detections the last box carried by the followed point), its sigma the detected
         centres' RMS residual about their line (>= BOX_CENTRE_FLOOR_PX). The followed point is
@@ -347,8 +345,7 @@ class GroundTracks:
         centre stays on the ship but scatters by a pixel. Before that (a young track, or detections
         lost): the followed point plus the box centre's offset from it when last known, with the
         point's own scatter: over a few seconds the slide is a few hundredths of a pixel. The switch
-        steps the column by about the box's scatter (pixels for a near ship), which is no motion: the
-        position is re-seated there, the velocity kept. `detected`: the
+        steps the column by about the box's scatter, which the sigma then allows. `detected`: the
         centre is this pair's detection box; `jumped`: the point moved to another part of the hull."""
         entry = self._by_id.setdefault(track_id, _Entry(GroundTrack(self.s)))
         if jumped:
@@ -359,14 +356,11 @@ class GroundTracks:
         while entry.centres and entry.centres[0][0] < t_s - BOX_FIT_S:
             entry.centres.popleft()
         if len(entry.centres) >= BOX_MIN_SAMPLES:
-            switched = not entry.on_box
-            entry.offset_px, entry.on_box = centre_px - point_px, True
-            return centre_px, max(BOX_CENTRE_FLOOR_PX, column_noise_px(list(entry.centres), floor_px=0.0)), \
-                switched
+            entry.offset_px = centre_px - point_px
+            return centre_px, max(BOX_CENTRE_FLOOR_PX, column_noise_px(list(entry.centres), floor_px=0.0))
         if entry.offset_px is None:
             entry.offset_px = centre_px - point_px
-        entry.on_box = False  # back on the point from the box's last offset: continuous, no re-seat
-        return point_px + entry.offset_px, point_noise_px, False
+        return point_px + entry.offset_px, point_noise_px
 
     def motion(self, track_id: int) -> Motion | None:
         """The track's east/north velocity and its speed and course sigmas, with whether each is shown

@@ -288,8 +288,7 @@ def test_the_column_is_the_box_centre_once_detections_give_its_scatter(
         centre = 100.0 + rate_pxps * k
         point = centre - 20.0 + slide_pxps * k
         box = centre + rng.normal(0.0, sigma_px)
-        col, est, switched = tracks.column(1, float(k), point, 0.05, box, True, False)
-        assert switched == (k == BOX_MIN_SAMPLES - 1)  # onto the box centre: re-seat once
+        col, est = tracks.column(1, float(k), point, 0.05, box, True, False)
         if k == 0:
             first_offset = box - point
         if k < BOX_MIN_SAMPLES - 1:
@@ -300,9 +299,9 @@ def test_the_column_is_the_box_centre_once_detections_give_its_scatter(
     n = int(BOX_FIT_S) + 1
     lo, hi = (math.sqrt(scipy.stats.chi2.ppf(p, n - 2) / (n - 2)) for p in (1e-4, 1 - 1e-4))
     assert max(lo * sigma_px, BOX_CENTRE_FLOOR_PX) <= est <= hi * sigma_px
-    col, sd, switched = tracks.column(1, 200.0, 500.0, 0.07, 530.0, True, True)  # jumped: young again
-    assert (col, sd, switched) == (530.0, 0.07, False)
+    col, sd = tracks.column(1, 200.0, 500.0, 0.07, 530.0, True, True)  # jumped: a young track again
+    assert (col, sd) == (530.0, 0.07)
     exact = GroundTracks()
     for k in range(30):
-        _, e, _ = exact.column(2, float(k), 3.0 * k, 0.05, 5.0 * k, True, False)
+        _, e = exact.column(2, float(k), 3.0 * k, 0.05, 5.0 * k, True, False)
     assert e == BOX_CENTRE_FLOOR_PX
