@@ -6,12 +6,13 @@ ship is known to tens of knots for minutes (a steady 3.4 kn ship at 3 km at 1 fp
 four minutes), because its white acceleration must let a near ship manoeuvre. On the ground a
 ship's motion is simple: straight at constant speed for minutes, now and then a turn. And the
 filter must not take the disparity filter's output, whose errors are correlated in time; it takes
-each pair's own measurement (the raw disparity of the pair, the followed column).
+each pair's own measurement (the raw disparity of the pair, the column of `GroundTracks.column`:
+the ship's box centre, or for a young track the followed point plus the box's offset).
 
 Measurement (per pair): the position triangulated from the pair's own disparity (eq. 4.1). Its
 covariance is anisotropic: along the line of sight the range sigma of eq. 4.5 (first order,
 sigma_r = r^2 sigma_d / (f L_B), sigma_d the track's own disparity scatter), across it the
-bearing sigma r sigma_u / f (sigma_u the followed column's scatter). R = G diag(sigma_r^2,
+bearing sigma r sigma_u / f (sigma_u that column's scatter). R = G diag(sigma_r^2,
 sigma_b^2) G^T with G the rotation to the line of sight's bearing (`measurement_cov`). The
 matcher's error is not white (it follows the window's texture as the ship's pose changes, over
 seconds: docs/decisions.md); R is inflated by (1 + rho) / (1 - rho), rho = exp(-dt / tau), the
@@ -28,6 +29,9 @@ Outliers: an innovation beyond the chi-square gate (`GATE_NIS`) is not taken; `R
 in a row (the point moved to another part of the hull, or the track to another ship's
 neighbourhood) re-seat the position on the measurement, keeping the velocity. A point that moved on
 the hull (`jumped`) or a restarted disparity filter re-seats at once.
+
+Reporting (`GroundTracks._latch`): SOG/COG are shown once their sigma meets the configured bound
+and stay shown until it exceeds HOLD_FACTOR times the bound.
 """
 
 from __future__ import annotations
