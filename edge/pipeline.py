@@ -230,23 +230,30 @@ class Pipeline:
 
     def _ground_step(self, tracks: list[Track], t_ns: int) -> None:
         """Each track's own measurement of this pair into its ground-plane filter
-        (edge.measure.groundtrack): the raw disparity the disparity filter accepted and the column the
-        point tracker followed (not the filters' outputs, whose errors are correlated in time)."""
+        (edge.measure.groundtrack): the raw disparity the disparity filter accepted (not the filter's
+        output, whose errors are correlated in time) on the followed point's column corrected by the
+        ship's box centre (`GroundTracks.column`): the point's template is re-taken every second, so
+        it slides along the hull (slow-5km: 14 px in 250 s, an apparent 0.06 m/s across the line of
+        sight), while the detector's box centre stays on the ship's centre (0.95 px white scatter
+        there)."""
         f, b = self.rect.f_px, self.rig.baseline_m
         fixes: dict[int, tuple[PairFix | None, bool, int]] = {}
         measured = [t for t in tracks if t.point.accepted and t.point.raw_disparity is not None
                     and t.point.raw_disparity > 0.0 and (t.point.followed or t.point.jumped != (0.0, 0.0))]
         if measured:
-            uv = np.array([[t.point.u, t.point.v] for t in measured])
+            cols = [self.ground.column(t.id, t_ns / 1e9, t.point.u, column_noise_px(list(t.point.columns)),
+                                       0.5 * float(t.box[0] + t.box[2]), t.det_frame == t.point.frame,
+                                       t.point.jumped != (0.0, 0.0)) for t in measured]
+            uv = np.array([[c, t.point.v] for (c, _), t in zip(cols, measured, strict=True)])
             raw = np.array([t.point.raw_disparity for t in measured])
             xy_l = self.rect.rect_to_normalised(uv)
             xy_r = xy_l - np.stack([raw / f, np.zeros_like(raw)], -1)
             world = triangulate_normalised(xy_l, xy_r, b)  # eq. 4.1
             enu = world_to_enu(world, self.site.heading_deg)
-            for t, (east, north, _) in zip(measured, enu.tolist(), strict=True):
+            for t, (_, sigma_u), (east, north, _) in zip(measured, cols, enu.tolist(), strict=True):
                 p = t.point
                 sigma_d = p.scatter_px() or p.noise_px
-                fixes[t.id] = (pair_fix(east, north, sigma_d, column_noise_px(list(p.columns)), f, b),
+                fixes[t.id] = (pair_fix(east, north, sigma_d, sigma_u, f, b),
                                p.jumped != (0.0, 0.0), p.updates)
         for t in tracks:
             fixes.setdefault(t.id, (None, False, t.point.updates))

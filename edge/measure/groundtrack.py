@@ -6,12 +6,13 @@ ship is known to tens of knots for minutes (a steady 3.4 kn ship at 3 km at 1 fp
 four minutes), because its white acceleration must let a near ship manoeuvre. On the ground a
 ship's motion is simple: straight at constant speed for minutes, now and then a turn. And the
 filter must not take the disparity filter's output, whose errors are correlated in time; it takes
-each pair's own measurement (the raw disparity of the pair, the followed column).
+each pair's own measurement (the raw disparity of the pair, the column of `GroundTracks.column`:
+the ship's box centre, or for a young track the followed point plus the box's offset).
 
 Measurement (per pair): the position triangulated from the pair's own disparity (eq. 4.1). Its
 covariance is anisotropic: along the line of sight the range sigma of eq. 4.5 (first order,
 sigma_r = r^2 sigma_d / (f L_B), sigma_d the track's own disparity scatter), across it the
-bearing sigma r sigma_u / f (sigma_u the followed column's scatter). R = G diag(sigma_r^2,
+bearing sigma r sigma_u / f (sigma_u that column's scatter). R = G diag(sigma_r^2,
 sigma_b^2) G^T with G the rotation to the line of sight's bearing (`measurement_cov`). The
 matcher's error is not white (it follows the window's texture as the ship's pose changes, over
 seconds: docs/decisions.md); R is inflated by (1 + rho) / (1 - rho), rho = exp(-dt / tau), the
@@ -28,12 +29,16 @@ Outliers: an innovation beyond the chi-square gate (`GATE_NIS`) is not taken; `R
 in a row (the point moved to another part of the hull, or the track to another ship's
 neighbourhood) re-seat the position on the measurement, keeping the velocity. A point that moved on
 the hull (`jumped`) or a restarted disparity filter re-seats at once.
+
+Reporting (`GroundTracks._latch`): SOG/COG are shown once their sigma meets the configured bound
+and stay shown until it exceeds HOLD_FACTOR times the bound.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections import deque
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -47,6 +52,7 @@ INIT_SPEED_SIGMA_MPS = 10.0  # the velocity's prior 1-sigma per axis at the firs
 GATE_NIS = 16.0  # chi-square, 2 dof: a measurement beyond is an outlier (p = 3e-4)
 RESEAT_AFTER = 3  # outliers in a row before the position is re-seated on the measurement
 MIN_SPEED_FOR_COURSE_MPS = 0.25  # a course of a slower target is not reported (about 0.5 kn)
+HOLD_FACTOR = 1.5  # once shown, SOG/COG stay shown until their sigma exceeds this times the bound
 
 
 @dataclass(frozen=True)
@@ -58,6 +64,7 @@ class GroundSettings:
     correlation_s: float = 1.0  # time constant of the matcher's correlated error (R inflation)
     max_sog_sigma_kn: float = 0.75  # SOG reported once its 1-sigma is at most this
     max_cog_sigma_deg: float = 5.5  # COG reported once its 1-sigma is at most this
+    hold_factor: float = HOLD_FACTOR  # ... and kept until it exceeds hold_factor times the bound
 
 
 def measurement_cov(bearing_rad: float, sigma_along_m: float, sigma_across_m: float) -> np.ndarray:
@@ -242,6 +249,9 @@ class GroundTrack:
 
 # ---------------------------------------------------------------- per track, from the pipeline's points
 COLUMN_NOISE_PX = 0.05  # the least scatter a followed column is credited with (bearing sigma)
+BOX_FIT_S = 20.0  # the box centre's scatter is its RMS residual about a line over this much of the track
+BOX_CENTRE_FLOOR_PX = 0.5  # the least scatter a box centre is credited with (whole-pixel box edges)
+BOX_MIN_SAMPLES = 5  # detections within BOX_FIT_S before the box centre is the column
 DISPARITY_NOISE_FLOOR_PX = 0.02  # the least disparity scatter a fix is credited with (range sigma)
 
 
@@ -253,17 +263,17 @@ class PairFix:
     cov: np.ndarray
 
 
-def column_noise_px(columns: list[tuple[int, float]]) -> float:
-    """RMS residual of the followed columns about their least-squares line (>= COLUMN_NOISE_PX;
-    the floor alone with fewer than 5 follows)."""
+def column_noise_px(columns: list[tuple[float, float]], floor_px: float = COLUMN_NOISE_PX) -> float:
+    """RMS residual of (time or frame, column) samples about their least-squares line (>= floor_px;
+    the floor alone with fewer than 5 samples)."""
     if len(columns) < 5:
-        return COLUMN_NOISE_PX
+        return floor_px
     t = np.array([c[0] for c in columns], float)
     u = np.array([c[1] for c in columns], float)
     a = np.vstack([t - t[-1], np.ones_like(t)]).T
     coef, *_ = np.linalg.lstsq(a, u, rcond=None)
     res = u - a @ coef
-    return max(COLUMN_NOISE_PX, float(math.sqrt(res @ res / (len(u) - 2))))
+    return max(floor_px, float(math.sqrt(res @ res / (len(u) - 2))))
 
 
 def pair_fix(east_m: float, north_m: float, sigma_d_px: float, sigma_u_px: float, focal_px: float,
@@ -281,6 +291,10 @@ def pair_fix(east_m: float, north_m: float, sigma_d_px: float, sigma_u_px: float
 class _Entry:
     track: GroundTrack
     updates: int = 0  # the point's disparity-filter updates at the last pair (a drop: it restarted)
+    sog_shown: bool = False  # the reporting latch (`GroundTracks._latch`)
+    cog_shown: bool = False
+    centres: deque[tuple[float, float]] = field(default_factory=deque)  # (t s, detected box centre px)
+    offset_px: float | None = None  # the box centre's last known offset from the followed point
 
 
 class GroundTracks:
@@ -303,19 +317,68 @@ class GroundTracks:
             else:
                 reseat = (jumped or restarted) and entry.track.started
                 entry.track.update(t_s, fix.en_m, fix.cov, reseat=reseat)
+            self._latch(entry)
+
+    def _latch(self, entry: _Entry) -> None:
+        """Reporting with hysteresis: SOG (COG) is first shown when its sigma meets its bound, and
+        stays shown until the sigma exceeds `hold_factor` times the bound. A short rise of the
+        manoeuvre mode's probability (a few pairs of unlucky innovations) widens the sigma a little
+        past the bound; withholding a speed already known to the bound's accuracy for it would
+        blank the field for seconds and help nobody. The sigma reported beside the value stays the
+        filter's own, so a VTS sees how unsure it is meanwhile; a real manoeuvre widens it past the
+        hold limit within seconds (the manoeuvre model's q) and the field empties."""
+        est = entry.track.speed_course()
+        if est is None:
+            entry.sog_shown = entry.cog_shown = False
+            return
+        _, speed_sd, _, course_sd = est
+        sog_kn, cog_deg = speed_sd / KNOT_MPS, math.degrees(course_sd)
+        hold = max(self.s.hold_factor, 1.0)
+        sog_limit = self.s.max_sog_sigma_kn * (hold if entry.sog_shown else 1.0)
+        entry.sog_shown = sog_kn <= sog_limit
+        cog_limit = self.s.max_cog_sigma_deg * (hold if entry.cog_shown else 1.0)
+        entry.cog_shown = entry.sog_shown and cog_deg <= cog_limit
+
+    def column(self, track_id: int, t_s: float, point_px: float, point_noise_px: float, centre_px: float,
+               detected: bool, jumped: bool) -> tuple[float, float]:
+        """The column (px) the track's fix takes and its 1-sigma (see `Pipeline._ground_step`). Once
+        BOX_MIN_SAMPLES detections lie within the last BOX_FIT_S: the ship's box centre (`centre_px`,
+        between detections the last box carried by the followed point), its sigma the detected
+        centres' RMS residual about their line (>= BOX_CENTRE_FLOOR_PX). The followed point is
+        precise from pair to pair but slides along the hull as its template is re-taken; the box
+        centre stays on the ship but scatters by a pixel. Before that (a young track, or detections
+        lost): the followed point plus the box centre's offset from it when last known, with the
+        point's own scatter: over a few seconds the slide is a few hundredths of a pixel. The switch
+        steps the column by about the box's scatter, which the sigma then allows. `detected`: the
+        centre is this pair's detection box; `jumped`: the point moved to another part of the hull."""
+        entry = self._by_id.setdefault(track_id, _Entry(GroundTrack(self.s)))
+        if jumped:
+            entry.centres.clear()
+            entry.offset_px = None
+        if detected:
+            entry.centres.append((t_s, centre_px))
+        while entry.centres and entry.centres[0][0] < t_s - BOX_FIT_S:
+            entry.centres.popleft()
+        if len(entry.centres) >= BOX_MIN_SAMPLES:
+            entry.offset_px = centre_px - point_px
+            return centre_px, max(BOX_CENTRE_FLOOR_PX, column_noise_px(list(entry.centres), floor_px=0.0))
+        if entry.offset_px is None:
+            entry.offset_px = centre_px - point_px
+        return point_px + entry.offset_px, point_noise_px
 
     def motion(self, track_id: int) -> Motion | None:
-        """The track's east/north velocity and its speed and course sigmas, with whether each meets its
-        configured bound (the speed's bound holds for both); None before its first fix."""
+        """The track's east/north velocity and its speed and course sigmas, with whether each is shown
+        (its sigma met the configured bound, with `_latch`'s hysteresis; the speed's holds for
+        both); None before its first fix."""
         entry = self._by_id.get(track_id)
         est = None if entry is None else entry.track.speed_course()
         vel = None if entry is None else entry.track.velocity()
         if est is None or vel is None:
             return None
         _, speed_sd, _, course_sd = est
-        sog_ok = speed_sd <= self.s.max_sog_sigma_kn * KNOT_MPS
-        cog_ok = sog_ok and math.degrees(course_sd) <= self.s.max_cog_sigma_deg
-        return Motion(vel[0].copy(), speed_sd / KNOT_MPS, math.degrees(course_sd), sog_ok, cog_ok)
+        assert entry is not None
+        return Motion(vel[0].copy(), speed_sd / KNOT_MPS, math.degrees(course_sd), entry.sog_shown,
+                      entry.cog_shown)
 
 
 @dataclass(frozen=True)
@@ -325,5 +388,5 @@ class Motion:
     velocity_en_mps: np.ndarray  # (east, north)
     sog_sigma_kn: float
     cog_sigma_deg: float  # inf below MIN_SPEED_FOR_COURSE_MPS
-    sog_ok: bool  # the speed's sigma meets the bound: report SOG
-    cog_ok: bool  # ... and the course's: report COG
+    sog_ok: bool  # report SOG: its sigma met the bound (and has not since passed the hold limit)
+    cog_ok: bool  # ... and likewise the course: report COG

@@ -10,10 +10,14 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.stats
 from hypothesis import Phase, given, settings
 from hypothesis import strategies as st
 
 from edge.measure.groundtrack import (
+    BOX_CENTRE_FLOOR_PX,
+    BOX_FIT_S,
+    BOX_MIN_SAMPLES,
     GATE_NIS,
     QUIET_Q,
     GroundSettings,
@@ -203,3 +207,101 @@ def test_outliers_are_gated_and_a_run_of_them_reseats() -> None:
     x, _ = f.state()
     assert abs(x[0] - 500.0) < 5.0  # re-seated on the new place, velocity kept
     assert abs(x[3] - 1.0) < 0.3
+
+
+def test_reporting_has_hysteresis_and_a_real_turn_still_empties_the_fields() -> None:
+    """SOG/COG are first shown when their sigma meets the bound and stay shown up to HOLD_FACTOR times
+    it (a short rise of the manoeuvre mode does not blank them); a 60 deg turn widens the sigma past the
+    hold limit and empties them; the sigma handed out is the filter's own throughout."""
+    s = GroundSettings(correlation_s=0.0, max_sog_sigma_kn=0.75, max_cog_sigma_deg=5.5)
+    tracks = GroundTracks(s)
+    rng = np.random.default_rng(11)
+    speed, rate, dt = 10 * KN, math.radians(3.0), 0.1
+    pos, heading = np.array([-300.0, 2000.0]), math.radians(90.0)
+    shown_at, emptied_in_turn = None, False
+    for k in range(int(100 / dt)):
+        t = k * dt
+        if 40.0 <= t < 60.0:
+            heading -= rate * dt
+        pos = pos + speed * dt * np.array([math.sin(heading), math.cos(heading)])
+        r = measurement_cov(math.atan2(pos[0], pos[1]), 30.0, 1.5)
+        tracks.step(t, {3: (PairFix(rng.multivariate_normal(pos, r), r), False, k)})
+        m = tracks.motion(3)
+        assert m is not None
+        sog_sd_kn, cog_sd_deg = m.sog_sigma_kn, m.cog_sigma_deg
+        # the latch's invariants: never shown beyond the hold limit, never newly shown beyond the bound
+        assert not m.sog_ok or sog_sd_kn <= 1.5 * s.max_sog_sigma_kn
+        assert not m.cog_ok or (m.sog_ok and cog_sd_deg <= 1.5 * s.max_cog_sigma_deg)
+        if m.cog_ok and shown_at is None:
+            shown_at = t
+            assert cog_sd_deg <= s.max_cog_sigma_deg and sog_sd_kn <= s.max_sog_sigma_kn
+        if 40.0 <= t < 62.0 and not m.cog_ok:
+            emptied_in_turn = True
+    assert shown_at is not None and shown_at < 40.0
+    assert emptied_in_turn
+
+
+def test_the_latch_holds_between_the_bound_and_the_hold_limit() -> None:
+    """Driven by hand: a sigma between the bound and 1.5x keeps a shown value and does not show a new one."""
+    s = GroundSettings(max_sog_sigma_kn=1.0, max_cog_sigma_deg=5.0)
+    tracks = GroundTracks(s)
+    entry_track = GroundTrack(s)
+    tracks.step(0.0, {1: (None, False, 0)})
+    entry = tracks._by_id[1]
+    entry.track = entry_track
+
+    def at(speed_sd_kn: float) -> tuple[bool, bool]:
+        entry_track.started = True
+        entry_track.x[:] = np.array([0.0, 0.0, 0.0, 5.0])  # 5 m/s north
+        sd = speed_sd_kn * KN
+        entry_track.p[:] = np.diag([1.0, 1.0, sd * sd, sd * sd])  # course sd = sd / 5 rad
+        entry_track.mu = np.array([1.0, 0.0])
+        tracks._latch(entry)
+        m = tracks.motion(1)
+        assert m is not None
+        return m.sog_ok, m.cog_ok
+
+    # course sd (deg) = speed sd (kn) * 0.514 / 5 * 57.3 = 5.9 x speed sd
+    assert at(1.2) == (False, False)  # above the bound, never shown: stays empty
+    assert at(0.8) == (True, True)  # both meet their bounds (course 4.7 deg)
+    assert at(1.2) == (True, True)  # both between the bound and 1.5x: held (course 7.1 deg)
+    assert at(1.3) == (True, False)  # course 7.7 deg > 7.5: emptied
+    assert at(1.2) == (True, False)  # and not shown again above its bound
+    assert at(1.6) == (False, False)  # speed past 1.5 kn: both emptied
+    assert at(1.2) == (False, False)
+
+
+@settings(max_examples=15, deadline=None, phases=[Phase.generate])
+@given(st.floats(0.6, 4.0), st.floats(-30.0, 30.0), st.floats(-0.2, 0.2), st.integers(0, 2**31))
+def test_the_column_is_the_box_centre_once_detections_give_its_scatter(
+        sigma_px: float, rate_pxps: float, slide_pxps: float, seed: int) -> None:
+    """A ship's box centre moving at a constant image rate with white scatter sigma, its followed point
+    sliding along the hull: a young track takes the point plus the first box offset with the point's
+    noise; from BOX_MIN_SAMPLES detections on the box centre itself, with its scatter about its line
+    (chi-square bounds for ~20 dof) as sigma; carried (undetected) centres are not entered; a jump
+    of the point starts over."""
+    rng = np.random.default_rng(seed)
+    tracks = GroundTracks()
+    first_offset = None
+    est = 0.0
+    for k in range(200):
+        centre = 100.0 + rate_pxps * k
+        point = centre - 20.0 + slide_pxps * k
+        box = centre + rng.normal(0.0, sigma_px)
+        col, est = tracks.column(1, float(k), point, 0.05, box, True, False)
+        if k == 0:
+            first_offset = box - point
+        if k < BOX_MIN_SAMPLES - 1:
+            assert col == pytest.approx(point + first_offset) and est == 0.05
+        else:
+            assert col == box
+            assert tracks.column(1, float(k), point, 0.05, 1e6, False, False)[1] == est  # not entered
+    n = int(BOX_FIT_S) + 1
+    lo, hi = (math.sqrt(scipy.stats.chi2.ppf(p, n - 2) / (n - 2)) for p in (1e-4, 1 - 1e-4))
+    assert max(lo * sigma_px, BOX_CENTRE_FLOOR_PX) <= est <= hi * sigma_px
+    col, sd = tracks.column(1, 200.0, 500.0, 0.07, 530.0, True, True)  # jumped: a young track again
+    assert (col, sd) == (530.0, 0.07)
+    exact = GroundTracks()
+    for k in range(30):
+        _, e = exact.column(2, float(k), 3.0 * k, 0.05, 5.0 * k, True, False)
+    assert e == BOX_CENTRE_FLOOR_PX
