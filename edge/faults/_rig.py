@@ -96,6 +96,20 @@ class NotifyListener:
     def times(self, prefix: str) -> list[float]:
         return [t for t, m in list(self.messages) if m.startswith(prefix)]
 
+    def wait_for(self, prefix: str, after_s: float, timeout_s: float = 60.0) -> float | None:
+        """Arrival time of the first message with a line starting with `prefix` after `after_s`, or None."""
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            for t, m in list(self.messages):
+                if t >= after_s and any(line.startswith(prefix) for line in m.splitlines()):
+                    return t
+            time.sleep(0.05)
+        return None
+
+    def texts(self, prefix: str, after_s: float) -> list[str]:
+        return [line for t, m in list(self.messages) if t >= after_s
+                for line in m.splitlines() if line.startswith(prefix)]
+
     def close(self) -> None:
         self._done.set()
         self._thread.join()

@@ -20,61 +20,18 @@ import csv
 import os
 import random
 import signal
-import socket
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
 import yaml
 
+from edge.faults._rig import NotifyListener
 from edge.faults.matrix import Case, Row
 from edge.faults.soak import ROOT, PtyReader
 from edge.faults.soak_scene import TEST_LAP, lap_recording
 from edge.state import FILE_NAME, StateError, parse_state
-
-READY_TIMEOUT_S = 60.0
-
-
-class Notify:
-    """systemd's end of NOTIFY_SOCKET: every datagram kept with its arrival time."""
-
-    def __init__(self, path: Path) -> None:
-        self.path = str(path)
-        self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-        self.sock.bind(self.path)
-        self.sock.settimeout(0.2)
-        self.messages: list[tuple[float, str]] = []
-        self._done = threading.Event()
-        self._thread = threading.Thread(target=self._drain, daemon=True)
-        self._thread.start()
-
-    def _drain(self) -> None:
-        while not self._done.is_set():
-            try:
-                self.messages.append((time.monotonic(), self.sock.recv(4096).decode()))
-            except TimeoutError:
-                pass
-
-    def wait_for(self, prefix: str, after_s: float, timeout_s: float = READY_TIMEOUT_S) -> float | None:
-        """Arrival time of the first message starting with `prefix` after `after_s`, or None."""
-        end = time.monotonic() + timeout_s
-        while time.monotonic() < end:
-            for t, m in list(self.messages):
-                if t >= after_s and any(line.startswith(prefix) for line in m.splitlines()):
-                    return t
-            time.sleep(0.05)
-        return None
-
-    def texts(self, prefix: str, after_s: float) -> list[str]:
-        return [line for t, m in list(self.messages) if t >= after_s
-                for line in m.splitlines() if line.startswith(prefix)]
-
-    def close(self) -> None:
-        self._done.set()
-        self._thread.join()
-        self.sock.close()
 
 
 def recording(workdir: Path) -> Path:
@@ -94,7 +51,7 @@ def write_config(workdir: Path, name: str, rec: Path, pty_path: str, state: Path
     return path
 
 
-def start(config: Path, notify: Notify, log: Path) -> subprocess.Popen:
+def start(config: Path, notify: NotifyListener, log: Path) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "edge.cli", "run", "--config", str(config)], cwd=ROOT,
                             stdout=subprocess.DEVNULL, stderr=open(log, "w"),  # noqa: SIM115 - the child owns it
                             env={**os.environ, "NOTIFY_SOCKET": notify.path})
@@ -130,7 +87,7 @@ def wait_numbers(reader: PtyReader, after_s: float, count: int, timeout_s: float
 
 def _sigkill(workdir: Path) -> list[Row]:
     rec, state = recording(workdir), workdir / "state"
-    reader, notify = PtyReader(keep_ttm=True), Notify(workdir / "notify.sock")
+    reader, notify = PtyReader(keep_ttm=True), NotifyListener(workdir / "notify.sock")
     rows: list[Row] = []
     procs: list[subprocess.Popen] = []
     try:
@@ -182,7 +139,7 @@ def _corrupt(workdir: Path) -> list[Row]:
     rec, state = recording(workdir), workdir / "state"
     state.mkdir()
     (state / FILE_NAME).write_bytes(b'{"format": 1, "next_track_id": \x00garbage')
-    reader, notify = PtyReader(keep_ttm=True), Notify(workdir / "notify.sock")
+    reader, notify = PtyReader(keep_ttm=True), NotifyListener(workdir / "notify.sock")
     log = workdir / "run.log"
     t0 = time.monotonic()
     proc = start(write_config(workdir, "run", rec, reader.path, state), notify, log)
