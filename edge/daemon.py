@@ -41,19 +41,19 @@ from pathlib import Path
 
 from drivers.camera.base import FramePair, FramePairSource
 from drivers.clock import Clock, SystemClock
-from drivers.leds.base import AMBER_LED, FAULT_LED, OK_LED, LedPanel
-from drivers.leds.sysfs import SysfsLedPanel
-from drivers.leds.virtual import VirtualLedPanel
+from drivers.leds.base import LedPanel
 from drivers.notify import Notifier
-from edge.config.app import AppConfig, LedsConfig, load_config
+from edge.config.app import AppConfig, load_config
 from edge.config.trust import check_config_files
 from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
+from edge.handover import LatestPair
 from edge.health import HealthMonitor, HealthSnapshot, HealthState, Status, standard_stages
 from edge.journal import MESSAGE_IDS, FaultLog
 from edge.live_record import LiveRecorder, recording_stage
 from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
+from edge.panel import build_leds
 from edge.persist import Persistence
 from edge.pipeline import Pipeline
 from edge.sources import SourcePlan, plan_source
@@ -69,52 +69,6 @@ EXTEND_S = 5.0  # each EXTEND_TIMEOUT_USEC while waiting for the first pair
 CLOCK_CHECK_S = 10.0  # how often the TIME_SYNC status bit is refreshed from the kernel
 LED_POLL_NS = 100_000_000  # the LEDs take up a health change within 0.1 s
 JOIN_S = 0.5  # per thread at shutdown (a camera blocked mid-frame is left behind): exit within 2 s
-
-
-class _Latest:
-    """One-slot queue: put() replaces an unread pair (counted as dropped); remembers when it came."""
-
-    def __init__(self) -> None:
-        self._cond = threading.Condition()
-        self._pair: FramePair | None = None
-        self.put_ns = 0  # CLOCK_MONOTONIC when the pair now held was put
-        self.dropped = 0
-        self.ended = False
-
-    def put(self, pair: FramePair, wait_until: threading.Event | None = None) -> None:
-        """With `wait_until`, wait for the slot to be read first (a source without pacing: a recording
-        or the simulator at full speed loses nothing) unless that event is set (stop, reload)."""
-        with self._cond:
-            while wait_until is not None and self._pair is not None and not wait_until.is_set():
-                self._cond.wait(QUEUE_WAIT_S)
-            if wait_until is not None and wait_until.is_set():
-                return  # stopping: the pair is not taken, and none was dropped
-            self.dropped += self._pair is not None
-            self._pair, self.put_ns = pair, time.monotonic_ns()
-            self._cond.notify()
-
-    def end(self) -> None:
-        with self._cond:
-            self.ended = True
-            self._cond.notify()
-
-    def get(self, timeout_s: float) -> tuple[FramePair, int] | None:
-        """(pair, CLOCK_MONOTONIC ns when it was captured), or None on time-out or end."""
-        with self._cond:
-            self._cond.wait_for(lambda: self._pair is not None or self.ended, timeout_s)
-            pair, self._pair = self._pair, None
-            self._cond.notify()  # a waiting put
-            return None if pair is None else (pair, self.put_ns)
-
-
-def build_leds(cfg: LedsConfig) -> LedPanel | None:
-    """The configured status LEDs: none, the kernel's LED class devices, or a recording panel."""
-    if cfg.kind == "none":
-        return None
-    roles = {OK_LED: cfg.ok, FAULT_LED: cfg.fault, **({AMBER_LED: cfg.amber} if cfg.amber else {})}
-    if cfg.kind == "virtual":
-        return VirtualLedPanel(tuple(roles))
-    return SysfsLedPanel(roles, root=cfg.root)
 
 
 def _plan(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
@@ -150,7 +104,7 @@ class Appliance:
         self.leds: LedPanel | None = build_leds(config.health.leds)
         self.clock: Clock = SystemClock()
         self._clock_checked_s = -math.inf
-        self.queue = _Latest()
+        self.queue = LatestPair()
         self.source: FramePairSource | None = None
         self.capture_errors = 0
         self.steps = 0

@@ -30,9 +30,9 @@ from drivers.leds.base import OFF, ON
 from edge.config.app import AppConfig, V4l2Cameras, config_from_dict, load_config
 from edge.config.schema import load_yaml
 from edge.core.match import match_point
-from edge.daemon import build_leds
 from edge.errors import ConfigError
 from edge.health import Status
+from edge.panel import build_leds
 from edge.sim import synth
 from edge.sources import SourcePlan, plan_source
 

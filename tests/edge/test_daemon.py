@@ -220,23 +220,6 @@ def test_bad_configuration_exits_78_before_running(tmp_path: Path, case: str, te
     assert "Traceback" not in stderr and key in stderr and len(stderr.strip().splitlines()) == 1
 
 
-def test_capture_queue_keeps_the_newest_pair_and_counts_drops() -> None:
-    import numpy as np
-
-    from drivers.camera.base import FramePair
-    from edge.daemon import _Latest
-
-    q = _Latest()
-    img = np.zeros((4, 4), np.uint8)
-    for k in range(3):
-        q.put(FramePair(img, img, k, k, k, k, k))
-    got = q.get(0.1)
-    assert got is not None and got[0].t_ns == 2 and q.dropped == 2 and got[1] > 0
-    assert q.get(0.01) is None and not q.ended
-    q.end()
-    assert q.get(1.0) is None and q.ended
-
-
 def _replay_config(root: Path, **health: float) -> dict:
     """A recording looped at its own pace, no Modbus port."""
     return {"cameras": {"kind": "replay", "path": str(root), "pace": True, "loop": True},
