@@ -228,7 +228,9 @@ def sigma_rows(ev: Evaluation, ships: list[Ship], hulls: ModelHulls | None = Non
                    imo_verdict="PASS" if np.mean(ok) >= IMO_SHARE else "FAIL")
         bins.append(row)
     whole = criterion(e, sigma)
-    whole["los_fixes"] = int(np.isfinite(los).sum())
+    hit = np.isfinite(los)
+    whole["los_fixes"] = int(hit.sum())
+    whole["los_only"] = criterion(np.abs(los[hit]), sigma[hit])  # information: the rays that meet the ship
     whole["hull"] = criterion(e_hull, sigma)  # information
     if ev.matched:
         share = float(np.mean([imo_hull_3d_ok(m, float(ek))
@@ -256,7 +258,11 @@ def format_sigma(rows: dict) -> list[str]:
                    f"{_f(None if share is None else 100 * share, '.1f'):>6}% "
                    f"{_f(r.get('rms_e_over_sigma'), '.2f'):>8} {r['verdict']:>6} "
                    f"{_f(None if imo is None else 100 * imo, '.1f'):>7}% {r.get('imo_verdict', ''):>5}")
-    hull = rows["all"].get("hull")
+    hull, los_only = rows["all"].get("hull"), rows["all"].get("los_only")
+    if los_only and los_only["fixes"]:
+        out.append(f"information, only the fixes whose ray meets the ship: RMS(e/sigma) "
+                   f"{los_only['rms_e_over_sigma']:.2f}, "
+                   f"{100 * los_only['share_within_3sigma']:.1f} % within 3 sigma")
     if hull and hull["fixes"]:
         out.append(f"e along the line of sight for {rows['all']['los_fixes']} of {rows['all']['fixes']} "
                    f"fixes "
