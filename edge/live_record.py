@@ -15,14 +15,12 @@ from __future__ import annotations
 
 import datetime
 import logging
-import time
-from dataclasses import replace
 from pathlib import Path
 
 from drivers.camera.base import FramePair
 from edge.config.calibration import Calibration
 from edge.health import HealthMonitor, Stage, Status
-from edge.record import PairWriter, RecordingFiles, queue_capacity
+from edge.record import PairWriter, RecordingFiles, queue_capacity, rebased, utc_anchor_ns
 from edge.sim.recording import build_meta
 
 log = logging.getLogger(__name__)
@@ -61,12 +59,8 @@ class LiveRecorder:
         if self.fault is not None or self._closed:
             return
         if self.t0_ns is None:
-            self.t0_ns = pair.t_ns
-            self.t0_utc_ns = pair.t_utc_ns if pair.t_utc_ns is not None else time.time_ns()
-        t0 = self.t0_ns
-        rebased = replace(pair, t_ns=pair.t_ns - t0, t_left_ns=pair.t_left_ns - t0,
-                          t_right_ns=pair.t_right_ns - t0)
-        if self.writer.put(rebased):
+            self.t0_ns, self.t0_utc_ns = pair.t_ns, utc_anchor_ns(pair)
+        if self.writer.put(rebased(pair, self.t0_ns)):
             self.offered += 1
         self._check()
 

@@ -146,6 +146,17 @@ def _yaml(meta: dict) -> bytes:
     return yaml.safe_dump(meta, sort_keys=False, allow_unicode=True).encode("utf-8")
 
 
+def utc_anchor_ns(pair: FramePair) -> int:
+    """The wall-clock time of a recording's first pair: its own UTC stamp, or now."""
+    return pair.t_utc_ns if pair.t_utc_ns is not None else time.time_ns()
+
+
+def rebased(pair: FramePair, t0_ns: int) -> FramePair:
+    """The pair with its stamps counted from the recording's first pair (frames.csv's clock)."""
+    return replace(pair, t_ns=pair.t_ns - t0_ns, t_left_ns=pair.t_left_ns - t0_ns,
+                   t_right_ns=pair.t_right_ns - t0_ns)
+
+
 class PairWriter:
     """The writer thread and its bounded queue (policy in the module docstring)."""
 
@@ -293,12 +304,8 @@ def record(
                                           f"calibration is for {width}x{height}")
                 break
             if result.t0_ns is None:
-                result.t0_ns = pair.t_ns
-                result.t0_utc_ns = pair.t_utc_ns if pair.t_utc_ns is not None else time.time_ns()
-            t0 = result.t0_ns
-            rebased = replace(pair, t_ns=pair.t_ns - t0, t_left_ns=pair.t_left_ns - t0,
-                              t_right_ns=pair.t_right_ns - t0)
-            if not writer.put(rebased):
+                result.t0_ns, result.t0_utc_ns = pair.t_ns, utc_anchor_ns(pair)
+            if not writer.put(rebased(pair, result.t0_ns)):
                 break
             result.captured += 1
             if progress is not None:

@@ -38,6 +38,7 @@ from drivers.notify import SystemdNotifier
 from drivers.trigger.virtual import VirtualTrigger
 from edge.config.app import config_from_dict
 from edge.daemon import Appliance
+from edge.faults._modbus_attack import recv_exact
 from edge.health import Status
 from edge.sources import BACKOFF_S, read_timeout_s
 
@@ -119,22 +120,12 @@ class NotifyListener:
 def modbus_read(sock: socket.socket, tid: int, start: int, count: int) -> list[int]:
     """One FC3 read over Modbus TCP (MBAP header + PDU), answered registers as u16."""
     sock.sendall(struct.pack(">HHHBBHH", tid & 0xFFFF, 0, 6, 1, 3, start, count))
-    head = _recv(sock, 7)
+    head = recv_exact(sock, 7)
     _, _, length, _ = struct.unpack(">HHHB", head)
-    body = _recv(sock, length - 1)
+    body = recv_exact(sock, length - 1)
     if body[0] != 3:
         raise OSError(f"Modbus exception {body[1] if len(body) > 1 else '?'}")
     return list(struct.unpack(f">{body[1] // 2}H", body[2:]))
-
-
-def _recv(sock: socket.socket, n: int) -> bytes:
-    data = b""
-    while len(data) < n:
-        chunk = sock.recv(n - len(data))
-        if not chunk:
-            raise OSError("connection closed")
-        data += chunk
-    return data
 
 
 class ModbusPoller:

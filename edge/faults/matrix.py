@@ -70,6 +70,12 @@ def run_case(case: Case, workdir: Path) -> list[Row]:
     return rows or [Row(case.name, "case reports", "no rows", False)]
 
 
+def failures(rows: Sequence[Row]) -> list[str]:
+    """One line per FAIL row (a skipped row is not a verdict): what was expected and what was seen."""
+    return [f"{r.fault}: expected {r.expected}; observed {r.observed}"
+            for r in rows if not r.passed and not r.skipped]
+
+
 def format_table(results: Sequence[tuple[Case, list[Row]]]) -> str:
     """The matrix as a fixed-width text table, one line per row."""
     lines = [f"{'group':<10} {'fault':<40} {'expected':<44} {'observed':<52} {'result':<6} recovery"]
@@ -112,4 +118,4 @@ def main(argv: Sequence[str] | None = None) -> int:
                           for c, rows in results for r in rows], indent=1))
     else:
         print(format_table(results))
-    return sum(1 for _, rows in results for r in rows if not r.passed and not r.skipped)
+    return sum(len(failures(rows)) for _, rows in results)

@@ -7,12 +7,12 @@ from pathlib import Path
 import pytest
 
 from edge.faults import cameras
-from edge.faults.matrix import Case, run_case
+from edge.faults.matrix import Case, failures, run_case
 
 
 @pytest.mark.parametrize("case", [c for c in cameras.CASES if not c.slow], ids=lambda c: c.name)
 def test_every_row_passes(case: Case, tmp_path: Path) -> None:
     rows = run_case(case, tmp_path)
-    failed = [f"{r.fault}: {r.observed}" for r in rows if not r.passed and not r.skipped]
+    failed = failures(rows)
     assert not failed, failed
     assert all(r.passed for r in rows), [r.skipped for r in rows]  # nothing here may be skipped

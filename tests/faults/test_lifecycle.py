@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from edge.faults import lifecycle
-from edge.faults.matrix import Case, run_case
+from edge.faults.matrix import Case, failures, run_case
 
 MACHINE_LACKS = ("needs root to mount a tmpfs", "mount -t tmpfs failed here")
 
@@ -17,7 +17,7 @@ MACHINE_LACKS = ("needs root to mount a tmpfs", "mount -t tmpfs failed here")
 @pytest.mark.parametrize("case", [c for c in lifecycle.CASES if not c.slow], ids=lambda c: c.name)
 def test_every_row_passes(case: Case, tmp_path: Path) -> None:
     rows = run_case(case, tmp_path)
-    failed = [f"{r.fault}: {r.observed}" for r in rows if not r.passed and not r.skipped]
+    failed = failures(rows)
     assert not failed, failed
     assert all(r.passed or r.skipped in MACHINE_LACKS for r in rows), [r.skipped for r in rows]
 

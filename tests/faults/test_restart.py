@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from edge.faults.matrix import run_case
+from edge.faults.matrix import failures, run_case
 from edge.faults.restart import CASES
 
 
@@ -15,5 +15,5 @@ from edge.faults.restart import CASES
 def test_restart_case(case, tmp_path: Path, recording, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("MAST_FAULTS_RECORDING", str(recording("two-ships-crossing", 60)))
     rows = run_case(case, tmp_path)
-    failed = [r for r in rows if not r.passed and not r.skipped]
-    assert not failed, "\n".join(f"{r.fault}: expected {r.expected}, observed {r.observed}" for r in failed)
+    failed = failures(rows)
+    assert not failed, "\n".join(failed)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from edge.faults.matrix import run_case
+from edge.faults.matrix import failures, run_case
 from edge.faults.soak import CASES
 
 
@@ -16,6 +16,6 @@ from edge.faults.soak import CASES
 def test_soak_case(case, tmp_path: Path, recording, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("MAST_FAULTS_RECORDING", str(recording("two-ships-crossing", 60)))
     rows = run_case(case, tmp_path)
-    failed = [r for r in rows if not r.passed and not r.skipped]
-    assert not failed, "\n".join(f"{r.fault}: expected {r.expected}, observed {r.observed}" for r in failed)
+    failed = failures(rows)
+    assert not failed, "\n".join(failed)
     assert len(rows) >= 8
