@@ -30,18 +30,11 @@ from pathlib import Path
 
 from drivers.modbus import ModbusTcpServer, TcpLimits
 from edge.faults import _modbus_attack as attack
+from edge.faults._rig import free_port
 from edge.faults._serial import serial_gone, serial_stalled
 from edge.faults.matrix import Case, Row
 
 LATENCY_BOUND_S = 0.050
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _image() -> list[int]:
@@ -88,7 +81,7 @@ def modbus_hostile(_workdir: Path) -> list[Row]:
     image = _image()
     rows: list[Row] = []
     fds0, threads0 = attack.open_fds(), attack.thread_names()
-    server = ModbusTcpServer("127.0.0.1", _free_port(), limits)
+    server = ModbusTcpServer("127.0.0.1", free_port(), limits)
     server.update(image)
     server.start()
     probe = attack.Probe(server.port, image[:10]).start()

@@ -40,6 +40,7 @@ from pathlib import Path
 
 import yaml
 
+from edge.faults._rig import free_port
 from edge.faults.matrix import Case, Row
 from edge.faults.soak_scene import SOAK_LAP, TEST_LAP, Lap, lap_recording
 
@@ -141,14 +142,6 @@ class ModbusPoller:
     def close(self) -> None:
         self._stop.set()
         self._thread.join()
-
-
-def free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def write_config(out: Path, recording: Path, pty_path: str, modbus_port: int, min_ship_px: int) -> Path:
