@@ -59,3 +59,32 @@ def test_hull_error_of_a_bounding_box_ship() -> None:
     assert es.hull_error_m(ship, 5, 9.0, -23.0, 1025.0) == pytest.approx(3.0)
     # below the keel at DRAFT_M under the waterline
     assert es.hull_error_m(ship, 5, 9.0, 0.0 + DRAFT_M + 2.0, 1025.0) == pytest.approx(2.0)
+
+
+def test_a_ray_grazing_the_outline_meets_the_ship_at_it() -> None:
+    # a 100 m ferry broadside at 2 km, waterline 25 m below the camera; f = 1000 px
+    from edge.sim.rays import PosedShip, cast
+    from edge.sim.ships import ShipModel
+
+    f_px, camera = 1000.0, np.zeros(3)
+    basis = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # a -> X, b -> Z, h -> up
+    posed = [PosedShip(0, ShipModel.build("ferry", 100.0), np.array([0.0, 25.0, 2000.0]), basis)]
+    # scan the image column through the ship's middle upwards to its outline, in 0.01 px steps
+    rows_px = np.arange(0.0, -400.0, -0.01)
+    dirs = np.column_stack([np.zeros_like(rows_px), 25.0 / 2000.0 + rows_px / f_px, np.ones_like(rows_px)])
+    hits = cast(camera, dirs, posed)
+    top = int(np.flatnonzero(hits.ship == 0).max())  # the last row that still meets the ship
+    t_top = hits.t[top]
+    on = es.graze_hit_t(camera, dirs[top], posed, 0, f_px)
+    assert on is not None and on[0] == pytest.approx(t_top)
+    above = es.graze_hit_t(camera, dirs[top] - [0.0, 0.55 / f_px, 0.0], posed, 0, f_px)
+    assert above is not None and above[0] * np.linalg.norm(above[1]) == pytest.approx(
+        t_top * np.linalg.norm(dirs[top]), rel=0.02)  # the outline's surface, not a far one
+    # beyond half a window above the ship's highest point within a window's reach: no surface
+    cols = np.arange(-es.GRAZE_PX - 1.0, es.GRAZE_PX + 1.01, 0.1)
+    highest = min(rows_px[np.flatnonzero(cast(camera, np.column_stack(
+        [np.full_like(rows_px, c / f_px), dirs[:, 1], dirs[:, 2]]), posed).ship == 0)].min() for c in cols)
+    clear = np.array([0.0, 25.0 / 2000.0 + (highest - es.GRAZE_PX - 0.3) / f_px, 1.0])
+    assert es.graze_hit_t(camera, clear, posed, 0, f_px) is None
+    assert es.graze_hit_t(camera, clear + [0.0, 0.6 / f_px, 0.0], posed, 0, f_px) is not None
+    assert es.graze_hit_t(camera, dirs[top], posed, 1, f_px) is None  # another ship's outline
