@@ -15,8 +15,8 @@ DRAFT_M below the waterline to the model's highest part.
 fix's range minus the range of the surface its line of sight meets on the ship (ray cast into the
 posed model; a ray passing within half the matcher's window of the ship's outline meets the ship
 where the nearest ray does, since the template it was measured on holds the ship there), and the
-hull distance where the ray misses it by more. The hull distance folds a fix inside the ship to its distance from the nearest plating,
-which no ranging sigma describes.
+hull distance where the ray misses it by more. The hull distance folds a fix inside the ship to
+its distance from the nearest plating, which no ranging sigma describes.
 
 **The criterion (ruling 1).** On every recording at least 95 % of T fixes lie within 3 sigma of
 the truth (e <= 3 sigma, sigma as the fix reports it to NMEA and Modbus) and
