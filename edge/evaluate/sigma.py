@@ -13,9 +13,9 @@ DRAFT_M below the waterline to the model's highest part.
 
 **The sigma's error.** The reported sigma is that of the measured point: the criterion's e is the
 fix's range minus the range of the surface its line of sight meets on the ship (ray cast into the
-posed model; a ray passing within half the matcher's window of the ship's outline meets the ship
-where the nearest ray does, since the template it was measured on holds the ship there), and the
-hull distance where the ray misses it by more. The hull distance folds a fix inside the ship to
+posed model; a ray passing within a pixel of the ship's outline meets the ship where the nearest
+ray does, since that pixel, blurred by the optics, sees the ship), and the hull distance where the
+ray misses it by more. The hull distance folds a fix inside the ship to
 its distance from the nearest plating, which no ranging sigma describes.
 
 **The criterion (ruling 1).** On every recording at least 95 % of T fixes lie within 3 sigma of
@@ -36,7 +36,6 @@ import math
 import numpy as np
 
 from edge.evaluate.metrics import BINS_M, Evaluation, Matched, Ship
-from edge.measure.settings import PointSettings
 from edge.sim.ships import DRAFT_M
 
 WITHIN_SIGMAS = 3.0
@@ -136,11 +135,12 @@ class ModelHulls:
                      origin: np.ndarray) -> np.ndarray:
         """The fix's range from `origin` (the left camera) minus the range of the surface its line of
         sight meets on this ship, NaN where it misses the ship by more than `GRAZE_PX`. A ray that
-        passes within GRAZE_PX (half the matcher's window) of the ship's outline stands for the ship's
-        surface nearest it (`graze_hit_t`): the template the disparity was measured on still holds
-        the ship there. So do the points followed on a superstructure top against the sky (turn-2km:
-        two thirds of the rays pass 0-0.3 px above the model) or centred a few pixels beyond a bow
-        whose edge is the best texture in the window (sharp-periodic: 3 px)."""
+        passes within GRAZE_PX (1 px) of the ship's outline stands for the ship's surface nearest it
+        (`graze_hit_t`): the pixel itself, blurred by the optics, still sees the ship there, as the
+        points followed on a superstructure top against the sky do (turn-2km: two thirds of the
+        rays pass 0-0.3 px above the model). Not further: half the matcher's window (7 px) was
+        tried, but on an end-on ship the nearest surface there can be 40 m nearer than the one the
+        window's texture measured (approach-720 at 1-2 km), an error the fix never made."""
         out = np.full(len(t_ns), np.nan)
         i = self.index[ship_id]
         for k, (t, p) in enumerate(zip(t_ns, xyz_m, strict=True)):
@@ -151,9 +151,9 @@ class ModelHulls:
         return out
 
 
-GRAZE_PX = PointSettings.window // 2  # the matcher's half window: what its template still holds
+GRAZE_PX = 1.0  # a pixel's own extent and the optics' blur (psf_sigma_px 0.7): it sees the ship there
 _RING_DIRS = np.array([[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1]], float)
-_RING_RADII_PX = np.arange(1, 10 * GRAZE_PX + 1) / 10.0  # square rings, 0.1 px apart
+_RING_RADII_PX = np.arange(1, int(10 * GRAZE_PX) + 1) / 10.0  # square rings, 0.1 px apart
 
 
 def graze_hit_t(origin: np.ndarray, ray: np.ndarray, posed: list, ship_index: int,
