@@ -85,7 +85,8 @@ class Pipeline:
             prefilter=cfg.prefilter, subpixel=subpixel,
             filter=filter or cfg.filter, butterworth_cutoff_hz=cfg.butterworth_cutoff_hz,
             gate_sigma=cfg.gate_sigma, reacquire_s=cfg.coast_s, baseline_m=self.rig.baseline_m,
-            focal_px=self.rect.f_px, alias_check=cfg.alias_check)
+            focal_px=self.rect.f_px, alias_check=cfg.alias_check,
+            depth_check=cfg.depth_check)
         self.table = TrackTable(self.rect, site.height_m, self.point_settings,
                                 TableSettings(coast_s=cfg.coast_s, max_tracks=cfg.max_tracks,
                                               waterline_tol_px=2.0 + 2.0 * cfg.detect_decimation))
@@ -183,8 +184,9 @@ class Pipeline:
         xy_r = xy_l - np.stack([d / f, np.zeros_like(d)], -1)
         world = triangulate_normalised(xy_l, xy_r, b)  # eq. 4.1
         range_m, bearing = range_bearing(world, self.site.heading_deg)
-        # the filter's sigma and, in quadrature, the aliasing check's term (0 unless pipeline.alias_check)
-        sigma_d = np.array([math.hypot(t.point.sigma_px, t.point.alias_sigma_px) for t in live])
+        # the filter's sigma and, in quadrature, the aliasing and depth checks' terms (0 when they are off)
+        sigma_d = np.array([math.hypot(t.point.sigma_px, t.point.alias_sigma_px, t.point.depth_sigma_px)
+                            for t in live])
         sigma_m = self._sigma_m(world, xy_l, d, sigma_d, range_m)
         lat, lon, _ = world_to_latlon(world, self.site)
         self._ground_step(tracks, t_ns)

@@ -137,6 +137,11 @@ class PipelineConfig:
         True, doc="cross-check every match with a 4-px smaller window and widen the fix's sigma by their "
         "persistent disagreement, at most 0.1 px (aliasing on sharp optics; one more match per track)"
     )
+    depth_check: bool = setting(
+        True, doc="match four 7-px sub-windows around every point and widen the fix's sigma by 1.5x their "
+        "persistent disagreement with the 15-px match, at most 0.5 px (the depth a near end-on ship spans "
+        "in one window; four small matches per track)"
+    )
     max_sog_sigma_kn: float = setting(
         0.75, positive=True, max=50.0,
         doc="SOG is reported once the ground-plane filter's 1-sigma is at most this, knots (0.75: table 3's "

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Sequence
 
 from edge.core.match import Match
 
@@ -46,6 +47,17 @@ GAIN = 1.0  # alias sigma = GAIN x persistent disagreement
 HISTORY = 20  # recent disagreements kept
 MAX_SIGMA_PX = 0.1  # the term's ceiling, px (module doc)
 MIN_SAMPLES = 3  # before the term counts
+
+
+def persistent_px(deltas: Sequence[float]) -> float | None:
+    """|mean| of recent disagreements less two of its standard errors: the part that does not average
+    out (None with fewer than MIN_SAMPLES)."""
+    n = len(deltas)
+    if n < MIN_SAMPLES:
+        return None
+    mean = sum(deltas) / n
+    var = sum((d - mean) ** 2 for d in deltas) / (n - 1)
+    return max(0.0, abs(mean) - 2.0 * math.sqrt(var / n))
 
 
 def check_window(window: int) -> int:
@@ -74,12 +86,7 @@ class AliasCheck:
 
     def persistent_px(self) -> float | None:
         """|mean disagreement| less two of its standard errors (the part that does not average out)."""
-        n = len(self.deltas)
-        if n < MIN_SAMPLES:
-            return None
-        mean = sum(self.deltas) / n
-        var = sum((d - mean) ** 2 for d in self.deltas) / (n - 1)
-        return max(0.0, abs(mean) - 2.0 * math.sqrt(var / n))
+        return persistent_px(self.deltas)
 
     def sigma_px(self) -> float:
         """The additive disparity sigma (px) for aliasing bias: 0 while the windows agree."""

@@ -52,6 +52,7 @@ from edge.measure.batch import (
     run_one,
     stereo_request,
 )
+from edge.measure.depthcheck import OFFSETS, SUB_WINDOW, DepthCheck
 from edge.measure.pointfilter import NOISE_WINDOW, PointFilter
 from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
@@ -107,11 +108,18 @@ class TrackPoint(PointFilter):
         self.columns: deque[tuple[int, float]] = deque(maxlen=max(3, int(round(COLUMN_FIT_S * settings.fps))))
         self._last_request: StereoMatch | None = None
         self.alias = AliasCheck()  # small-window cross-check of the right match (settings.alias_check)
+        self.depth = DepthCheck()  # sub-window cross-check (settings.depth_check)
 
     @property
     def alias_sigma_px(self) -> float:
         """The additive disparity sigma for aliasing bias (edge.measure.aliascheck); 0 when off."""
         return self.alias.sigma_px()
+
+    @property
+    def depth_sigma_px(self) -> float:
+        """The additive disparity sigma for the depth the window spans (edge.measure.depthcheck); 0
+        while the alias check finds aliasing, which biases the small sub-windows more (sharp optics)."""
+        return 0.0 if self.alias.sigma_px() > 0.0 else self.depth.sigma_px()
 
     def reanchor(self, u: float, v: float) -> None:
         """Start over at a new point on the same ship: new template, the filters restart."""
@@ -122,6 +130,7 @@ class TrackPoint(PointFilter):
         self.match_costs.clear()
         self.columns.clear()
         self.alias.clear()
+        self.depth.clear()
         self._reset_filters()
 
     def set_window(self, window: int, rect: Rectifier) -> None:
@@ -132,6 +141,7 @@ class TrackPoint(PointFilter):
         self.match_settings = match_settings(self.s)
         self.match_costs.clear()  # costs scale with the window's area
         self.alias.clear()  # and the check's window changes with it
+        self.depth.clear()
         if self.last_left is not None:
             self._take_template(self.last_left, rect)
         else:
@@ -337,6 +347,11 @@ class TrackPoint(PointFilter):
             check = yield self._check_request(m, left, right, rect)
             assert isinstance(check, Match)  # the answer to a StereoMatch
             self.alias.add(m, check)
+        if self.s.depth_check and m.valid:
+            for k, (du, dv) in enumerate(OFFSETS):
+                sub = yield self._sub_request(m, left, right, rect, du, dv)
+                assert isinstance(sub, Match)
+                self.depth.add(k, m, sub)
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)
         if not self.accepted and self.kalman is not None and self.kalman.running:
@@ -359,6 +374,13 @@ class TrackPoint(PointFilter):
         settings = replace(self.match_settings, window=w, search_radius=2)
         return stereo_request(replace(self.s, window=w), left, right, rect, self.u, self.v, m.disparity_px,
                               settings)
+
+    def _sub_request(self, m: Match, left: np.ndarray, right: np.ndarray, rect: Rectifier,
+                     du: int, dv: int) -> StereoMatch:
+        """One of the depth check's sub-windows (edge.measure.depthcheck), searched around the main match."""
+        settings = replace(self.match_settings, window=SUB_WINDOW, search_radius=2)
+        return stereo_request(replace(self.s, window=SUB_WINDOW), left, right, rect, self.u + du, self.v + dv,
+                              m.disparity_px, settings)
 
     def _mixed(self, cost: float) -> bool:
         """A match much worse than this track's typical one: the window holds two objects at

@@ -14,9 +14,10 @@ from edge.core.kalman import KalmanDesign, design_kalman
 from edge.measure.settings import PointSettings
 
 # Correlation time of the matcher's disparity error (s), for the reported sigma (eq. K.8 of
-# edge.core.kalman_design): fitted on the six calibration recordings (docs/decisions.md); 0.12 s
-# puts RMS(e / sigma) in 0.6-1.5 on all of them (offline: 0.08 s two-ships-crossing 1.53, 0.15 s glints 0.58).
-MATCH_ERROR_CORR_S = 0.12
+# edge.core.kalman_design): fitted with edge.measure.depthcheck's GAIN on the eleven recordings of the
+# README's ruling-1 table (docs/decisions.md); 0.09 s puts RMS(e / sigma) in 0.6-1.5 on all of them
+# (0.12 s before the depth check; with it, 0.12 s put small-boat-fog and glints at 0.59).
+MATCH_ERROR_CORR_S = 0.09
 
 
 class Designs:

@@ -38,3 +38,4 @@ class PointSettings:
     baseline_m: float = 0.0  # with focal_px: bounds the image motion and disparity rates (0: no bound)
     focal_px: float = 0.0
     alias_check: bool = True  # cross-check each match with a smaller window (edge.measure.aliascheck)
+    depth_check: bool = True  # cross-check each match with four sub-windows (edge.measure.depthcheck)

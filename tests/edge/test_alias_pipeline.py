@@ -1,10 +1,13 @@
-"""pipeline.alias_check (issue 16) in the real pipeline: it only adds variance. The same points,
-disparities and positions as without it, each fix's sigma at least as large, and the term it adds
-is the track's own window disagreement (edge.measure.aliascheck)."""
+"""pipeline.alias_check and pipeline.depth_check (issue 16) in the real pipeline: they only add
+variance. The same points, disparities and positions as without them, each fix's sigma at least as
+large, and the terms they add are the track's own window disagreements (edge.measure.aliascheck,
+edge.measure.depthcheck)."""
 
 from __future__ import annotations
 
 import math
+
+import pytest
 
 from drivers.camera.replay import ReplaySource
 from edge.config.app import PipelineConfig
@@ -14,17 +17,20 @@ from edge.pipeline import Pipeline
 FRAMES = 30  # the same recording as tests/edge/test_pipeline.py (rendered once per session)
 
 
-def test_the_check_widens_sigma_and_changes_nothing_else(recording) -> None:
+@pytest.mark.parametrize("check", ["alias", "depth"])
+def test_the_check_widens_sigma_and_changes_nothing_else(recording, check: str) -> None:
     path = recording("akashi-crossing", FRAMES)
     with ReplaySource(path) as src:
         meta, pairs = src.meta, list(src)
     runs = {}
     for on in (False, True):
-        pipe = Pipeline(recording_calibration(path, meta), PipelineConfig(alias_check=on), fps=meta["fps"])
+        pipe = Pipeline(recording_calibration(path, meta), PipelineConfig(**{f"{check}_check": on}),
+                        fps=meta["fps"])
         runs[on] = [fix for pair in pairs for fix in pipe.step(pair)]
         if on:
-            terms = [t.point.alias_sigma_px for t in pipe.table.tracks]
-            checked = [len(t.point.alias.deltas) for t in pipe.table.tracks]
+            terms = [getattr(t.point, f"{check}_sigma_px") for t in pipe.table.tracks]
+            checked = [len(t.point.alias.deltas) if check == "alias" else min(map(len, t.point.depth.deltas))
+                       for t in pipe.table.tracks]
     off, on_ = runs[False], runs[True]
     assert len(off) == len(on_) > 0
     for a, b in zip(off, on_, strict=True):
