@@ -19,7 +19,11 @@ sharp optics, and their disagreement there sized their own bias (sharp-decks: si
 GAIN 1.5 is fitted with eq. K.8's correlation time (edge.measure.ranging) on the eleven recordings of
 the README's ruling-1 table; the sub-windows' disagreement is a few pixels' depth step, smaller than
 the offset the window's texture may sit at. Four 7x7 matches over five disparities per track and
-pair, against one 15x15 over its search.
+pair they run on, once per EVERY_S (0.5 s): every pair at 1 fps, every 5th at 10 fps. Run on every
+pair they made a pair 2-4x the time with many tracks (tools/bench: 720x480, 29 tracks, 4.2 -> 14.5
+ms), while the window's depth mix changes with the ship's aspect over seconds, and samples
+0.5 s apart are nearly independent of the matcher's correlated noise (0.10 s, eq. K.8), as the
+persistence test's standard error assumes.
 """
 
 from __future__ import annotations
@@ -33,9 +37,15 @@ from edge.measure.aliascheck import persistent_px
 SUB_WINDOW = 7  # px side of each sub-window
 OFFSET_PX = 4  # sub-window centres this far from the point: inside the 15-px window, half overlapping
 OFFSETS = ((-OFFSET_PX, 0), (OFFSET_PX, 0), (0, -OFFSET_PX), (0, OFFSET_PX))  # (du, dv) px
-GAIN = 1.5  # depth sigma = GAIN x the RMS persistent disagreement (module doc)
-HISTORY = 20  # recent disagreements kept per sub-window
+GAIN = 1.5
+HISTORY = 20  # recent disagreements kept per sub-window (10 s at 10 fps, 20 s at 1 fps)
 MAX_SIGMA_PX = 0.5  # the term's ceiling, px
+EVERY_S = 0.5  # sub-windows matched on one pair per this many seconds (module doc)
+
+
+def depth_every(fps: float) -> int:
+    """Pairs between two depth checks: every pair at 2 fps and less, every 5th at 10 fps."""
+    return max(1, int(round(fps * EVERY_S)))
 
 
 class DepthCheck:

@@ -52,7 +52,7 @@ from edge.measure.batch import (
     run_one,
     stereo_request,
 )
-from edge.measure.depthcheck import OFFSETS, SUB_WINDOW, DepthCheck
+from edge.measure.depthcheck import OFFSETS, SUB_WINDOW, DepthCheck, depth_every
 from edge.measure.pointfilter import NOISE_WINDOW, PointFilter
 from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
@@ -347,7 +347,7 @@ class TrackPoint(PointFilter):
             check = yield self._check_request(m, left, right, rect)
             assert isinstance(check, Match)  # the answer to a StereoMatch
             self.alias.add(m, check)
-        if self.s.depth_check and m.valid:
+        if self.s.depth_check and m.valid and self.frame % depth_every(self.s.fps) == 0:
             for k, (du, dv) in enumerate(OFFSETS):
                 sub = yield self._sub_request(m, left, right, rect, du, dv)
                 assert isinstance(sub, Match)
