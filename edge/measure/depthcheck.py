@@ -37,7 +37,7 @@ from edge.measure.aliascheck import persistent_px
 SUB_WINDOW = 7  # px side of each sub-window
 OFFSET_PX = 4  # sub-window centres this far from the point: inside the 15-px window, half overlapping
 OFFSETS = ((-OFFSET_PX, 0), (OFFSET_PX, 0), (0, -OFFSET_PX), (0, OFFSET_PX))  # (du, dv) px
-GAIN = 1.5
+GAIN = 1.5  # depth sigma = GAIN x the RMS persistent disagreement (module doc)
 HISTORY = 20  # recent disagreements kept per sub-window (10 s at 10 fps, 20 s at 1 fps)
 MAX_SIGMA_PX = 0.5  # the term's ceiling, px
 EVERY_S = 0.5  # sub-windows matched on one pair per this many seconds (module doc)
