@@ -144,7 +144,8 @@ class Appliance:
         site = plan.calibration.site
         assert site is not None  # build() refuses a plan without a site
         outputs = Outputs.from_config(config.outputs, health, max_tracks=config.pipeline.max_tracks,
-                                      site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg)
+                                      site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg,
+                                      alerts=config.alerts)
         for stream in extra_nmea:
             outputs.add(stream)
         return outputs
@@ -345,7 +346,8 @@ class Appliance:
             plan = _plan(config, self.config_file)
             health = _health(config, plan, bool(self.extra_nmea), recording=self.recorder is not None)
             outputs = self._outputs(config, plan, health, self.extra_nmea) \
-                if (config.outputs, config.health) != (self.config.outputs, self.config.health) else None
+                if (config.outputs, config.health, config.alerts) != \
+                (self.config.outputs, self.config.health, self.config.alerts) else None
         except ConfigError as exc:
             self.reload_error = str(exc)
             log.error("reload refused, running on the previous configuration: %s", exc,

@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
+from edge.alerts.config import AlertsConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
@@ -174,6 +175,8 @@ class NmeaPort:
     )
     send_acquiring: bool = setting(False, doc="also report acquiring (Q) tracks")
     proprietary: ProprietaryConfig = setting(default_factory=ProprietaryConfig)
+    alerts: Literal["alf", "alr", "both", "none"] = setting(
+        "alf", doc="with alerts.enabled: IEC 61162-1 ed. 5 ALF/ALC, the legacy ALR, both, or none on this port")
 
 
 @dataclass(frozen=True)
@@ -276,6 +279,7 @@ class AppConfig:
     outputs: OutputsConfig = setting(default_factory=OutputsConfig)
     health: HealthConfig = setting(default_factory=HealthConfig)
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
+    alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # issue 18 (edge/alerts/config.py)
 
     @property
     def effective_site(self) -> Site | None:

@@ -12,6 +12,11 @@ image. Stages are served in order (NMEA, CSV, then Modbus), so the register imag
 health of this step's other outputs. Modbus shows the NMEA target number of the first NMEA
 serial port (each port has its own allocator: numbers are per receiver); with no NMEA port the
 field reads "not available".
+
+Alerts (issue 18, `alerts.enabled`): one `AlertManager` is stepped with each step's fixes and the
+health before any output publishes; every NMEA output whose port does not say `alerts: none` gets
+its own `PortAlerts` (its target numbers, its sentences), and Modbus shows the alert block with
+the first serial port's numbers.
 """
 
 from __future__ import annotations
@@ -23,6 +28,9 @@ from collections.abc import Callable, Sequence
 
 from drivers.modbus import ModbusRtuServer, ModbusServer, ModbusTcpServer
 from edge import __version__
+from edge.alerts.config import AlertsConfig
+from edge.alerts.manager import AlertManager
+from edge.alerts.port import PortAlerts
 from edge.config.app import OutputsConfig
 from edge.encode.registers import Identity, WordOrder
 from edge.fix import ShipFix
@@ -62,8 +70,10 @@ def firmware_version() -> tuple[int, int, int]:
 class Outputs:
     """Publishes fixes to every output and reports their health; see the module docstring."""
 
-    def __init__(self, outputs: Sequence[Output], health: HealthMonitor) -> None:
+    def __init__(self, outputs: Sequence[Output], health: HealthMonitor,
+                 alerts: AlertManager | None = None) -> None:
         self.health = health
+        self.alerts = alerts
         self.outputs: list[Output] = []
         self.sent: Counter[str] = Counter()  # items published since start, per unit
         self.health_images = 0  # Modbus images republished while no pair came (publish_health)
@@ -73,10 +83,21 @@ class Outputs:
     @classmethod
     def from_config(cls, cfg: OutputsConfig, health: HealthMonitor, *, max_tracks: int,
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
-                    clock: Callable[[], float] = time.monotonic) -> Outputs:
-        outputs: list[Output] = [NmeaSerialOutput.from_config(p) for p in cfg.nmea]
+                    clock: Callable[[], float] = time.monotonic, alerts: AlertsConfig | None = None) -> Outputs:
+        manager = AlertManager(alerts, max_tracks) if alerts is not None and alerts.enabled else None
+        outputs: list[Output] = []
+        for port in cfg.nmea:
+            serial = NmeaSerialOutput.from_config(port)
+            if manager is not None and alerts is not None and port.alerts != "none":
+                serial.scheduler.alerts = PortAlerts(manager, alerts, talker=port.talker, mode=port.alerts,
+                                                     digits=serial.scheduler.numbers.digits)
+            outputs.append(serial)
         if cfg.udp.enabled:
-            outputs.append(NmeaUdpOutput.from_config(cfg.udp))
+            udp = NmeaUdpOutput.from_config(cfg.udp)
+            if manager is not None and alerts is not None:
+                udp.scheduler.alerts = PortAlerts(manager, alerts, talker=cfg.udp.source[:2],
+                                                  digits=udp.scheduler.numbers.digits)
+            outputs.append(udp)
         if cfg.tracks_csv is not None:
             outputs.append(TracksCsvOutput(cfg.tracks_csv))
         servers: list[ModbusServer] = []
@@ -85,7 +106,7 @@ class Outputs:
         if cfg.modbus.rtu.enabled:
             rtu = cfg.modbus.rtu
             servers.append(ModbusRtuServer(rtu.url, rtu.unit, rtu.baud, rtu.parity, rtu.stopbits))
-        fanout = cls(outputs, health)
+        fanout = cls(outputs, health, manager)
         if servers:
             order = WordOrder.HIGH_FIRST if cfg.modbus.word_order == "high_first" else WordOrder.LOW_FIRST
             fanout.add_modbus(servers, Identity(firmware_version(), max_tracks, order, site_lat_deg,
@@ -111,6 +132,8 @@ class Outputs:
         stage: str | None = None
         faults: list[str] = []
         counters: Counter[str] = Counter()
+        if self.alerts is not None:  # before any output: each renders this step's alerts
+            self.alerts.step(fixes, utc_ns, self.health.snapshot())
         for out in self.outputs:
             if out.stage != stage:
                 self._beat(stage, faults, counters)

@@ -111,4 +111,7 @@ class NmeaSerialOutput:
             "serial_submitted": port.submitted, "serial_written": port.written_messages,
             **fix_counters(sched),
         }  # fmt: skip
+        if self.scheduler.alerts is not None:  # issue 18: alert sentences and what was received
+            counters.update(self.scheduler.alerts.counts)
+            counters["alert_bytes"] = self.scheduler.alert_bytes_sent
         return fault, counters
