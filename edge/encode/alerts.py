@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from edge.encode.nmea import MAX_SENTENCE_CHARS, checksum, check_talker, fmt_utc, sentence
+from edge.encode.nmea import MAX_SENTENCE_CHARS, NmeaError, check_talker, checksum, fmt_utc, sentence
 
 ALR_NUMBERS = {190: 190, 191: 191, 192: 192, 193: 193, 10001: 901, 10002: 902, 10003: 903, 10004: 904}
 ACN_COMMANDS = frozenset("AQOS")  # acknowledge, request repeat, responsibility transfer, silence
@@ -49,10 +49,13 @@ def alc(talker: str, sequence: int, entries: Sequence[tuple[str, int, int, int]]
     groups: list[list[tuple[str, int, int, int]]] = [[]]
     for entry in entries:
         trial = groups[-1] + [entry]
-        if groups[-1] and len(_alc_line(address, 99, 99, sequence, trial)) > MAX_SENTENCE_CHARS:
-            groups.append([entry])
-        else:
+        try:
+            _alc_line(address, 99, 99, sequence, trial)  # the widest header: refused when too long
             groups[-1] = trial
+        except NmeaError:
+            if not groups[-1]:
+                raise
+            groups.append([entry])
     if len(groups) > 99:
         raise ValueError(f"{len(entries)} alerts need more than 99 ALC sentences")
     return [_alc_line(address, len(groups), k + 1, sequence, g) for k, g in enumerate(groups)]
