@@ -52,6 +52,7 @@ class PortAlerts:
         self._last_sent_s: dict[Key, float] = {}
         self._numbers: dict[int, int] = {}  # track id -> this port's target number (kept while referenced)
         self._alc_due_s = -math.inf
+        self._alc_left: list[str] = []  # the current ALC list's sentences not yet sent
         self._hbt_due_s = -math.inf
         self._seq = {"ALF": 0, "ALC": 0, "HBT": 0}
         self.counts = dict.fromkeys(("alf_sent", "alr_sent", "alc_sent", "hbt_sent", "alerts_withheld",
@@ -88,6 +89,7 @@ class PortAlerts:
     def _render(self, alert: Alert, instance: int) -> tuple[str, ...]:
         out: list[str] = []
         if self.mode in ("alf", "both"):
+            self._seq["ALF"] = (self._seq["ALF"] + 1) % 10  # at rendering: an offer not sent leaves a gap
             out.append(alf(self.talker, self._seq["ALF"], alert.changed_ns, alert.category, alert.priority,
                            alert.state.value, self._mfr(alert), int(alert.alert_id), instance,
                            alert.revision, self.text(alert)))
@@ -114,9 +116,12 @@ class PortAlerts:
         for alert in changed:
             self._offer_alert(out, alert, now_s, pending=True)
         with_instance = [(a, self.instance(a)) for a in active]
-        if self.mode != "alr" and active and now_s >= self._alc_due_s:
+        if self.mode != "alr" and active and now_s >= self._alc_due_s and not self._alc_left:
             entries = [(self._mfr(a), int(a.alert_id), i, a.revision) for a, i in with_instance if i is not None]
-            self._item(out, alc(self.talker, self._seq["ALC"], entries), self._sent_alc(now_s))
+            self._alc_left = alc(self.talker, self._seq["ALC"], entries)  # kept until all went out
+            self._seq["ALC"] = (self._seq["ALC"] + 1) % 100
+        for k, line in enumerate(self._alc_left):  # the list's sentences go out in order, each once
+            out.append(((line,), self._sent_alc_line(now_s, k == len(self._alc_left) - 1)))
         if self.cfg.heartbeat_s > 0 and now_s >= self._hbt_due_s:
             out.append(((hbt(self.talker, self.cfg.heartbeat_s, self.manager.health_ok, self._seq["HBT"]),),
                         self._sent_hbt(now_s)))
@@ -150,17 +155,17 @@ class PortAlerts:
             else:
                 self._last_sent_s.pop(alert.key, None)
             if self.mode in ("alf", "both"):
-                self._seq["ALF"] = (self._seq["ALF"] + 1) % 10
                 self.counts["alf_sent"] += 1
             if self.mode in ("alr", "both"):
                 self.counts["alr_sent"] += 1
         return sent
 
-    def _sent_alc(self, now_s: float) -> Callable[[], None]:
+    def _sent_alc_line(self, now_s: float, last: bool) -> Callable[[], None]:
         def sent() -> None:
-            self._alc_due_s = now_s + self.cfg.alc_s
-            self._seq["ALC"] = (self._seq["ALC"] + 1) % 100
-            self.counts["alc_sent"] += 1
+            self._alc_left.pop(0)
+            if last:
+                self._alc_due_s = now_s + self.cfg.alc_s
+                self.counts["alc_sent"] += 1
         return sent
 
     def _sent_hbt(self, now_s: float) -> Callable[[], None]:
