@@ -29,10 +29,10 @@ from collections.abc import Callable, Sequence
 from drivers.modbus import ModbusRtuServer, ModbusServer, ModbusTcpServer
 from edge import __version__
 from edge.alerts.config import AlertsConfig
-from edge.alerts.manager import AlertManager
+from edge.alerts.manager import AlertManager, AlertState
 from edge.alerts.port import PortAlerts
 from edge.config.app import OutputsConfig
-from edge.encode.registers import Identity, WordOrder
+from edge.encode.registers import ALERT_SLOTS, AlertImage, AlertRow, Identity, WordOrder
 from edge.fix import ShipFix
 from edge.health import HealthMonitor, HealthSnapshot, Status
 from edge.outputs.base import Output
@@ -110,7 +110,7 @@ class Outputs:
         if servers:
             order = WordOrder.HIGH_FIRST if cfg.modbus.word_order == "high_first" else WordOrder.LOW_FIRST
             fanout.add_modbus(servers, Identity(firmware_version(), max_tracks, order, site_lat_deg,
-                                                site_lon_deg), clock)
+                                                site_lon_deg, ALERT_SLOTS if manager is not None else 0), clock)
         return fanout
 
     def add(self, output: Output) -> None:
@@ -121,7 +121,27 @@ class Outputs:
     def add_modbus(self, servers: Sequence[ModbusServer], identity: Identity,
                    clock: Callable[[], float] = time.monotonic) -> None:
         """The Modbus servers as one output, publishing this fan-out's health and target numbers."""
-        self.add(ModbusOutput(servers, identity, self.health.snapshot, self.target_numbers, clock))
+        self.add(ModbusOutput(servers, identity, self.health.snapshot, self.target_numbers, clock,
+                              None if self.alerts is None else self.alert_image))
+
+    def alert_image(self) -> AlertImage | None:
+        """The alert manager's state for Modbus, with the first serial port's target numbers."""
+        manager = self.alerts
+        if manager is None:
+            return None
+        first = next((o for o in self.outputs if isinstance(o, NmeaSerialOutput)), None)
+        port = None if first is None else first.scheduler.alerts
+        numbers = None if first is None else first.scheduler.numbers
+        rows = []
+        for a in manager.active():
+            tracks = (a.tracks + (None, None))[:2]
+            targets = tuple(None if t is None or numbers is None else numbers.reserved_for(t) for t in tracks)
+            instance = a.instance if not a.tracks else None if port is None else port.instance(a)
+            rows.append(AlertRow(int(a.alert_id), instance, a.state is AlertState.ACTIVE_ACK, a.priority,
+                                 a.revision, (targets[0], targets[1]), (tracks[0], tracks[1]), a.cpa_m,
+                                 a.tcpa_s, max(0.0, (manager.last_utc_ns - a.raised_ns) / 1e9)))
+        unack = sum(a.state is AlertState.ACTIVE_UNACK for a in manager.active())
+        return AlertImage(tuple(rows), unack, manager.raised, manager.health_ok)
 
     def start(self) -> None:
         for out in self.outputs:
