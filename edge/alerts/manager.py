@@ -284,7 +284,7 @@ class AlertManager:
             raise_run.feed(False, now_ns, 0.0)
         else:
             if raise_run.feed(holds, now_ns, self.cfg.confirm_s):
-                self._raise(alert_id, (), instance, now_ns, **values)  # type: ignore[arg-type]
+                self._raise(alert_id, (), instance, now_ns, **values)
             clear_run.feed(False, now_ns, 0.0)
 
     def _capacity(self, live: int, now_ns: int) -> None:

@@ -32,9 +32,14 @@ from edge.encode.alerts import alc, alf, alr, hbt, parse_acn
 
 Offer = tuple[tuple[str, ...], Callable[[], None]]
 PRIORITY_ORDER = {"E": 0, "A": 1, "W": 2, "C": 3}
-TEXTS = {AlertId.CAPACITY: "TRACKS", AlertId.NEW_TARGET: "NEW TARGET", AlertId.TARGET_LOST: "LOST TARGET",
-         AlertId.DARK_TARGET: "DARK TARGET", AlertId.CALIBRATION: "CALIBRATION INVALID",
-         AlertId.PROCESSING: "PROCESSING FAULT"}
+TEXTS = {
+    AlertId.CAPACITY: "TRACKS",
+    AlertId.NEW_TARGET: "NEW TARGET",
+    AlertId.TARGET_LOST: "LOST TARGET",
+    AlertId.DARK_TARGET: "DARK TARGET",
+    AlertId.CALIBRATION: "CALIBRATION INVALID",
+    AlertId.PROCESSING: "PROCESSING FAULT",
+}
 
 
 def _nothing() -> None:
@@ -44,8 +49,15 @@ def _nothing() -> None:
 class PortAlerts:
     """Alert sentence timing for one port; `offers` once per scheduler step."""
 
-    def __init__(self, manager: AlertManager, config: AlertsConfig, *, talker: str = "RA",
-                 mode: Literal["alf", "alr", "both"] = "alf", digits: int = 2) -> None:
+    def __init__(
+        self,
+        manager: AlertManager,
+        config: AlertsConfig,
+        *,
+        talker: str = "RA",
+        mode: Literal["alf", "alr", "both"] = "alf",
+        digits: int = 2,
+    ) -> None:
         self.manager, self.cfg, self.talker, self.mode, self.digits = manager, config, talker, mode, digits
         self._seen = 0  # manager change-log sequence read so far
         self._pending: dict[Key, Alert] = {}
@@ -55,8 +67,19 @@ class PortAlerts:
         self._alc_left: list[str] = []  # the current ALC list's sentences not yet sent
         self._hbt_due_s = -math.inf
         self._seq = {"ALF": 0, "ALC": 0, "HBT": 0}
-        self.counts = dict.fromkeys(("alf_sent", "alr_sent", "alc_sent", "hbt_sent", "alerts_withheld",
-                                     "acn_applied", "acn_unknown", "received_ignored"), 0)
+        self.counts = dict.fromkeys(
+            (
+                "alf_sent",
+                "alr_sent",
+                "alc_sent",
+                "hbt_sent",
+                "alerts_withheld",
+                "acn_applied",
+                "acn_unknown",
+                "received_ignored",
+            ),
+            0,
+        )
 
     # ------------------------------------------------------------ instances and text
     def instance(self, alert: Alert) -> int | None:
@@ -75,7 +98,11 @@ class PortAlerts:
         tgt = " ".join(f"{n:0{self.digits}d}" for n in nums)
         if alert.alert_id is AlertId.CLOSE_QUARTERS:
             cpa = "" if alert.cpa_m is None else f" {alert.cpa_m:.0f}M"
-            tcpa = "" if alert.tcpa_s is None or not math.isfinite(alert.tcpa_s) else f" {alert.tcpa_s / 60:.1f}MIN"
+            tcpa = (
+                ""
+                if alert.tcpa_s is None or not math.isfinite(alert.tcpa_s)
+                else f" {alert.tcpa_s / 60:.1f}MIN"
+            )
             return f"CPA {tgt}{cpa}{tcpa}"
         if alert.alert_id is AlertId.CAPACITY:
             return "TRACKS FULL" if alert.instance == 2 else f"TRACKS {100 * self.cfg.capacity_share:.0f} PCT"
@@ -90,12 +117,32 @@ class PortAlerts:
         out: list[str] = []
         if self.mode in ("alf", "both"):
             self._seq["ALF"] = (self._seq["ALF"] + 1) % 10  # at rendering: an offer not sent leaves a gap
-            out.append(alf(self.talker, self._seq["ALF"], alert.changed_ns, alert.category, alert.priority,
-                           alert.state.value, self._mfr(alert), int(alert.alert_id), instance,
-                           alert.revision, self.text(alert)))
+            out.append(
+                alf(
+                    self.talker,
+                    self._seq["ALF"],
+                    alert.changed_ns,
+                    alert.category,
+                    alert.priority,
+                    alert.state.value,
+                    self._mfr(alert),
+                    int(alert.alert_id),
+                    instance,
+                    alert.revision,
+                    self.text(alert),
+                )
+            )
         if self.mode in ("alr", "both"):
-            out.append(alr(self.talker, alert.changed_ns, int(alert.alert_id), alert.active,
-                           alert.state is AlertState.ACTIVE_ACK, self.text(alert)))
+            out.append(
+                alr(
+                    self.talker,
+                    alert.changed_ns,
+                    int(alert.alert_id),
+                    alert.active,
+                    alert.state is AlertState.ACTIVE_ACK,
+                    self.text(alert),
+                )
+            )
         return tuple(out)
 
     # ------------------------------------------------------------ per step
@@ -112,22 +159,32 @@ class PortAlerts:
                 self._numbers[tid] = n
         self._numbers = {t: n for t, n in self._numbers.items() if t in referenced}
         out: list[Offer] = []
-        changed = sorted(self._pending.values(), key=lambda a: (PRIORITY_ORDER[a.priority], a.changed_ns, a.key))
+        changed = sorted(
+            self._pending.values(), key=lambda a: (PRIORITY_ORDER[a.priority], a.changed_ns, a.key)
+        )
         for alert in changed:
             self._offer_alert(out, alert, now_s, pending=True)
         with_instance = [(a, self.instance(a)) for a in active]
         if self.mode != "alr" and active and now_s >= self._alc_due_s and not self._alc_left:
-            entries = [(self._mfr(a), int(a.alert_id), i, a.revision) for a, i in with_instance if i is not None]
+            entries = [
+                (self._mfr(a), int(a.alert_id), i, a.revision) for a, i in with_instance if i is not None
+            ]
             self._alc_left = alc(self.talker, self._seq["ALC"], entries)  # kept until all went out
             self._seq["ALC"] = (self._seq["ALC"] + 1) % 100
         for k, line in enumerate(self._alc_left):  # the list's sentences go out in order, each once
             out.append(((line,), self._sent_alc_line(now_s, k == len(self._alc_left) - 1)))
         if self.cfg.heartbeat_s > 0 and now_s >= self._hbt_due_s:
-            out.append(((hbt(self.talker, self.cfg.heartbeat_s, self.manager.health_ok, self._seq["HBT"]),),
-                        self._sent_hbt(now_s)))
+            out.append(
+                (
+                    (hbt(self.talker, self.cfg.heartbeat_s, self.manager.health_ok, self._seq["HBT"]),),
+                    self._sent_hbt(now_s),
+                )
+            )
         for alert in active:
-            if alert.key not in self._pending and now_s - self._last_sent_s.get(alert.key, -math.inf) \
-                    >= self.cfg.repeat_s:
+            if (
+                alert.key not in self._pending
+                and now_s - self._last_sent_s.get(alert.key, -math.inf) >= self.cfg.repeat_s
+            ):
                 self._offer_alert(out, alert, now_s, pending=False)
         return out
 
@@ -158,6 +215,7 @@ class PortAlerts:
                 self.counts["alf_sent"] += 1
             if self.mode in ("alr", "both"):
                 self.counts["alr_sent"] += 1
+
         return sent
 
     def _sent_alc_line(self, now_s: float, last: bool) -> Callable[[], None]:
@@ -166,6 +224,7 @@ class PortAlerts:
             if last:
                 self._alc_due_s = now_s + self.cfg.alc_s
                 self.counts["alc_sent"] += 1
+
         return sent
 
     def _sent_hbt(self, now_s: float) -> Callable[[], None]:
@@ -173,6 +232,7 @@ class PortAlerts:
             self._hbt_due_s = now_s + self.cfg.heartbeat_s
             self._seq["HBT"] = (self._seq["HBT"] + 1) % 10
             self.counts["hbt_sent"] += 1
+
         return sent
 
     # ------------------------------------------------------------ received

@@ -176,7 +176,7 @@ class NmeaPort:
     send_acquiring: bool = setting(False, doc="also report acquiring (Q) tracks")
     proprietary: ProprietaryConfig = setting(default_factory=ProprietaryConfig)
     alerts: Literal["alf", "alr", "both", "none"] = setting(
-        "alf", doc="with alerts.enabled: IEC 61162-1 ed. 5 ALF/ALC, the legacy ALR, both, or none on this port")
+        "alf", doc="with alerts.enabled: IEC 61162-1 ed. 5 ALF/ALC, the legacy ALR, both, or none here")
 
 
 @dataclass(frozen=True)

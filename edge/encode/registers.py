@@ -24,6 +24,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
+from edge.encode.alert_rows import AlertImage, alert_values
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthSnapshot, Status
 
@@ -38,7 +39,8 @@ ALERT_STRIDE = 16
 ALERT_SLOTS = 16
 MAX_TRACKS_WITH_ALERTS = 36  # track slots and the AIS MMSI block (2 per slot after them) end below 900
 BLOCKS = {"identity": (0, 16), "health": (16, TRACK_BASE - 16), "track": (TRACK_BASE, TRACK_STRIDE),
-          "alert": (ALERT_BLOCK, ALERT_SLOT_BASE - ALERT_BLOCK), "alert_slot": (ALERT_SLOT_BASE, ALERT_STRIDE)}
+          "alert": (ALERT_BLOCK, ALERT_SLOT_BASE - ALERT_BLOCK),
+          "alert_slot": (ALERT_SLOT_BASE, ALERT_STRIDE)}
 TYPES = {"u16": (1, False), "i16": (1, True), "u32": (2, False), "i32": (2, True)}  # words, signed
 NA_U16, NA_I16, NA_U32, NA_I32 = 0xFFFF, 0x8000, 0xFFFFFFFF, 0x7FFFFFFF
 SLOT_STATUS = {None: 0, TrackStatus.ACQUIRING: 1, TrackStatus.TRACKING: 2, TrackStatus.LOST: 3}
@@ -134,8 +136,9 @@ FIELDS += (  # issue 18: alerts (edge.alerts); all 0 / "not available" with aler
     _f("ALERT_STRIDE", "alert", 3, "u16", 1, "", None, f"Registers per alert slot (= {ALERT_STRIDE})"),
     _f("ALERT_ID", "alert_slot", 0, "u16", 1, "", None,
        "0 empty, else the ALF alert id (190-193, 10001-10004: README Alerts)"),
-    _f("ALERT_INSTANCE", "alert_slot", 1, "u32", 1, "", NA_U32, "ALF alert instance (first NMEA port's numbers)"),
-    _f("ALERT_STATE", "alert_slot", 3, "u16", 1, "", None, "0 empty, 1 active unacknowledged (V), 2 acknowledged (A)"),
+    _f("ALERT_INSTANCE", "alert_slot", 1, "u32", 1, "", NA_U32, "ALF alert instance (first NMEA port's)"),
+    _f("ALERT_STATE", "alert_slot", 3, "u16", 1, "", None,
+       "0 empty, 1 active unacknowledged (V), 2 acknowledged (A)"),
     _f("ALERT_PRIORITY", "alert_slot", 4, "u16", 1, "", None, "0 empty, 1 alarm, 2 warning, 3 caution"),
     _f("ALERT_REVISION", "alert_slot", 5, "u16", 1, "", None, "ALF revision counter 1-99"),
     _f("ALERT_TARGET_A", "alert_slot", 6, "u16", 1, "", NA_U16, "NMEA target number of the (first) ship"),
@@ -176,7 +179,8 @@ class Identity:
         if not 1 <= self.max_tracks <= (0x10000 - TRACK_BASE) // TRACK_STRIDE:
             raise ValueError(f"max_tracks {self.max_tracks} does not fit the 16-bit address space")
         if self.alert_slots and self.max_tracks > MAX_TRACKS_WITH_ALERTS:
-            raise ValueError(f"with the alert block at {ALERT_BLOCK} max_tracks must be <= {MAX_TRACKS_WITH_ALERTS}")
+            raise ValueError(f"with the alert block at {ALERT_BLOCK} max_tracks must be "
+                             f"<= {MAX_TRACKS_WITH_ALERTS}")
 
     @property
     def size(self) -> int:
@@ -323,15 +327,18 @@ def build_snapshot(fixes: Sequence[ShipFix], health: HealthSnapshot, identity: I
         fx = by_id.get(tid) if tid is not None else None
         write(TRACK_BASE + TRACK_STRIDE * k, "track", _slot_values(fx, numbers, utc_ns, counter))
     if alerts is not None:  # issue 18: the header's alert fields, and the block when it exists
+        header = alerts.header(ALERT_BLOCK if identity.alert_slots else 0)
         for f in BLOCK_FIELDS["health"][-5:]:
             at = BLOCKS["health"][0] + f.offset
-            regs[at:at + f.words] = encode(f, alerts.header(identity)[f.name], order)
+            regs[at:at + f.words] = encode(f, header[f.name], order)
     if identity.alert_slots:
         rows = alerts.rows if alerts is not None else ()
         write(ALERT_BLOCK, "alert", {"ALERT_COUNT": len(rows), "ALERT_SLOTS": identity.alert_slots,
                                      "ALERT_BASE": ALERT_SLOT_BASE, "ALERT_STRIDE": ALERT_STRIDE})
         for k in range(identity.alert_slots):
-            write(ALERT_SLOT_BASE + ALERT_STRIDE * k, "alert_slot", _alert_values(rows[k] if k < len(rows) else None))
+            row = rows[k] if k < len(rows) else None
+            write(ALERT_SLOT_BASE + ALERT_STRIDE * k, "alert_slot",
+                  alert_values(row, [f.name for f in BLOCK_FIELDS["alert_slot"]]))
     return RegisterSnapshot(tuple(regs), SlotAssignment(slots, counter), unslotted)
 
 
@@ -366,51 +373,6 @@ def _slot_values(fx: ShipFix | None, numbers: Mapping[int, int], utc_ns: int,
         X_EAST=fx.range_m * math.sin(brg), Y_NORTH=fx.range_m * math.cos(brg),
         AGE=max(0, utc_ns - fx.t_ns) / 1e9, SIGMA=fx.sigma_m,
         CONFIDENCE=None if fx.confidence is None else 100 * fx.confidence, LENGTH=fx.length_m)
-    return values
-
-
-@dataclass(frozen=True, slots=True)
-class AlertRow:
-    """One active alert as the alert slot shows it (edge.outputs.fanout builds them)."""
-
-    alert_id: int
-    instance: int | None
-    acknowledged: bool
-    priority: str  # A alarm, W warning, C caution
-    revision: int
-    targets: tuple[int | None, int | None]
-    tracks: tuple[int | None, int | None]
-    cpa_m: float | None
-    tcpa_s: float | None
-    age_s: float
-
-
-@dataclass(frozen=True, slots=True)
-class AlertImage:
-    """The alert manager's state for one register image."""
-
-    rows: tuple[AlertRow, ...]  # most urgent first; those beyond the slots are counted only
-    unacknowledged: int
-    raised: int
-    health_ok: bool
-
-    def header(self, identity: Identity) -> dict[str, float | None]:
-        return {"ALERTS_ACTIVE": len(self.rows), "ALERTS_UNACK": self.unacknowledged,
-                "ALERTS_RAISED": self.raised, "HBT_STATUS": 2 if self.health_ok else 1,
-                "ALERT_BLOCK_ADDR": ALERT_BLOCK if identity.alert_slots else 0}
-
-
-def _alert_values(row: AlertRow | None) -> dict[str, float | None]:
-    values: dict[str, float | None] = {f.name: None for f in BLOCK_FIELDS["alert_slot"]}
-    values.update(ALERT_ID=0, ALERT_STATE=0, ALERT_PRIORITY=0, ALERT_REVISION=0)
-    if row is None:
-        return values
-    values.update(ALERT_ID=row.alert_id, ALERT_INSTANCE=row.instance, ALERT_STATE=2 if row.acknowledged else 1,
-                  ALERT_PRIORITY={"E": 1, "A": 1, "W": 2, "C": 3}[row.priority], ALERT_REVISION=row.revision,
-                  ALERT_TARGET_A=row.targets[0], ALERT_TARGET_B=row.targets[1], ALERT_TRACK_A=row.tracks[0],
-                  ALERT_TRACK_B=row.tracks[1], ALERT_CPA=row.cpa_m,
-                  ALERT_TCPA=None if row.tcpa_s is None or not math.isfinite(row.tcpa_s) else row.tcpa_s,
-                  ALERT_AGE=row.age_s)
     return values
 
 

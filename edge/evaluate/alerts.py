@@ -66,8 +66,12 @@ def ship_of_track(fixes: Sequence[ShipFix], truth: Mapping[int, np.ndarray]) -> 
     return None if best is None else best[1]
 
 
-def evaluate_alerts(by_time: Mapping[int, list[ShipFix]], truth: Mapping[int, np.ndarray],
-                    config: AlertsConfig | None = None, max_tracks: int = 32) -> tuple[list[AlertRow], list[str]]:
+def evaluate_alerts(
+    by_time: Mapping[int, list[ShipFix]],
+    truth: Mapping[int, np.ndarray],
+    config: AlertsConfig | None = None,
+    max_tracks: int = 32,
+) -> tuple[list[AlertRow], list[str]]:
     """(one row per close-quarters alert, lines naming true close-quarters pairs without one)."""
     cfg = config or AlertsConfig(enabled=True)
     manager = AlertManager(cfg, max_tracks)
@@ -98,18 +102,40 @@ def evaluate_alerts(by_time: Mapping[int, list[ShipFix]], truth: Mapping[int, np
             raised = (t_ns - t0) / 1e9
             false = true_cpa is None or true_cpa >= cfg.cpa_m
             open_rows[tracks] = len(rows)
-            rows.append(AlertRow((a, b), (sa, sb), raised, None, cpa, tcpa, true_cpa, true_t,
-                                 None if true_t is None else true_t - raised, false))
+            rows.append(
+                AlertRow(
+                    (a, b),
+                    (sa, sb),
+                    raised,
+                    None,
+                    cpa,
+                    tcpa,
+                    true_cpa,
+                    true_t,
+                    None if true_t is None else true_t - raised,
+                    false,
+                )
+            )
         elif tracks in open_rows:
             k = open_rows.pop(tracks)
             r = rows[k]
-            rows[k] = AlertRow(r.tracks, r.ships, r.raised_s, (t_ns - t0) / 1e9, r.cpa_at_raise_m,
-                               r.tcpa_at_raise_s, r.true_cpa_m, r.true_cpa_s, r.lead_s, r.false)
+            rows[k] = AlertRow(
+                r.tracks,
+                r.ships,
+                r.raised_s,
+                (t_ns - t0) / 1e9,
+                r.cpa_at_raise_m,
+                r.tcpa_at_raise_s,
+                r.true_cpa_m,
+                r.true_cpa_s,
+                r.lead_s,
+                r.false,
+            )
     missed = []
     ids = sorted(truth)
     alerted = {frozenset(r.ships) for r in rows if not r.false}
     for i, a in enumerate(ids):
-        for b in ids[i + 1:]:
+        for b in ids[i + 1 :]:
             d, t_ns = true_pair_cpa(truth, a, b)
             if d < cfg.cpa_m and frozenset((a, b)) not in alerted:
                 missed.append(f"ships {a} and {b}: true CPA {d:.0f} m at {(t_ns - t0) / 1e9:.0f} s, no alert")
@@ -120,13 +146,17 @@ def format_rows(rows: Sequence[AlertRow], missed: Sequence[str]) -> list[str]:
     def f(v: float | None, spec: str = ".0f") -> str:
         return "-" if v is None else format(v, spec)
 
-    out = [f"{'tracks':>9} {'ships':>7} {'raised s':>8} {'cleared s':>9} {'CPA m':>6} {'TCPA s':>6} "
-           f"{'true CPA m':>10} {'at s':>5} {'lead s':>6} {'false':>5}"]
+    out = [
+        f"{'tracks':>9} {'ships':>7} {'raised s':>8} {'cleared s':>9} {'CPA m':>6} {'TCPA s':>6} "
+        f"{'true CPA m':>10} {'at s':>5} {'lead s':>6} {'false':>5}"
+    ]
     for r in rows:
         ships = "/".join("-" if s is None else str(s) for s in r.ships)
-        out.append(f"{r.tracks[0]:>4}/{r.tracks[1]:<4} {ships:>7} {r.raised_s:>8.0f} {f(r.cleared_s):>9} "
-                   f"{f(r.cpa_at_raise_m):>6} {f(r.tcpa_at_raise_s):>6} {f(r.true_cpa_m):>10} "
-                   f"{f(r.true_cpa_s):>5} {f(r.lead_s):>6} {'yes' if r.false else 'no':>5}")
+        out.append(
+            f"{r.tracks[0]:>4}/{r.tracks[1]:<4} {ships:>7} {r.raised_s:>8.0f} {f(r.cleared_s):>9} "
+            f"{f(r.cpa_at_raise_m):>6} {f(r.tcpa_at_raise_s):>6} {f(r.true_cpa_m):>10} "
+            f"{f(r.true_cpa_s):>5} {f(r.lead_s):>6} {'yes' if r.false else 'no':>5}"
+        )
     out.append(f"close-quarters alerts {len(rows)}, false {sum(r.false for r in rows)}, missed {len(missed)}")
     out += list(missed)
     return out

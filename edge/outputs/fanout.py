@@ -32,7 +32,8 @@ from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertManager, AlertState
 from edge.alerts.port import PortAlerts
 from edge.config.app import OutputsConfig
-from edge.encode.registers import ALERT_SLOTS, AlertImage, AlertRow, Identity, WordOrder
+from edge.encode.alert_rows import AlertImage, AlertRow
+from edge.encode.registers import ALERT_SLOTS, Identity, WordOrder
 from edge.fix import ShipFix
 from edge.health import HealthMonitor, HealthSnapshot, Status
 from edge.outputs.base import Output
@@ -83,7 +84,8 @@ class Outputs:
     @classmethod
     def from_config(cls, cfg: OutputsConfig, health: HealthMonitor, *, max_tracks: int,
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
-                    clock: Callable[[], float] = time.monotonic, alerts: AlertsConfig | None = None) -> Outputs:
+                    clock: Callable[[], float] = time.monotonic,
+                    alerts: AlertsConfig | None = None) -> Outputs:
         manager = AlertManager(alerts, max_tracks) if alerts is not None and alerts.enabled else None
         outputs: list[Output] = []
         for port in cfg.nmea:
@@ -110,7 +112,8 @@ class Outputs:
         if servers:
             order = WordOrder.HIGH_FIRST if cfg.modbus.word_order == "high_first" else WordOrder.LOW_FIRST
             fanout.add_modbus(servers, Identity(firmware_version(), max_tracks, order, site_lat_deg,
-                                                site_lon_deg, ALERT_SLOTS if manager is not None else 0), clock)
+                                                site_lon_deg, ALERT_SLOTS if manager is not None else 0),
+                              clock)
         return fanout
 
     def add(self, output: Output) -> None:

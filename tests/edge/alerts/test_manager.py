@@ -17,25 +17,52 @@ T0_NS = 1_790_000_000_000_000_000
 COV = (25.0, 0, 0, 0, 0, 25.0, 0, 0, 0, 0, 0.01, 0, 0, 0, 0, 0.01)  # 5 m, 0.1 m/s
 
 
-def fix(track_id: int, t_s: float, state: tuple[float, float, float, float] | None,
-        status: TrackStatus = TrackStatus.TRACKING, cov: tuple[float, ...] = COV, dark: bool = False,
-        length_m: float = 80.0) -> ShipFix:
+def fix(
+    track_id: int,
+    t_s: float,
+    state: tuple[float, float, float, float] | None,
+    status: TrackStatus = TrackStatus.TRACKING,
+    cov: tuple[float, ...] = COV,
+    dark: bool = False,
+    length_m: float = 80.0,
+) -> ShipFix:
     """A fix whose ground state is `state` at t = 0 moved on to `t_s` (constant velocity)."""
     en = None if state is None else (state[0] + state[2] * t_s, state[1] + state[3] * t_s, state[2], state[3])
-    return ShipFix(T0_NS + round(t_s * 1e9), track_id, status, 0.0, 0.0, 1000.0, 1000.0, 0.0, 34.6, 135.0,
-                   5.0, 0.0, 10.0, 5.0, length_m=length_m, dark=dark, en_state=en,
-                   en_cov=None if state is None else cov)
+    return ShipFix(
+        T0_NS + round(t_s * 1e9),
+        track_id,
+        status,
+        0.0,
+        0.0,
+        1000.0,
+        1000.0,
+        0.0,
+        34.6,
+        135.0,
+        5.0,
+        0.0,
+        10.0,
+        5.0,
+        length_m=length_m,
+        dark=dark,
+        en_state=en,
+        en_cov=None if state is None else cov,
+    )
 
 
-def run(manager: AlertManager, states: dict[int, tuple[float, float, float, float]], t_s: range,
-        **kw: object) -> list[tuple[float, AlertState]]:
+def run(
+    manager: AlertManager, states: dict[int, tuple[float, float, float, float]], t_s: range, **kw: object
+) -> list[tuple[float, AlertState]]:
     """Step once a second; the close-quarters state changes (time, state)."""
     out = []
     for t in t_s:
         before = manager.sequence
         manager.step([fix(i, t, s, **kw) for i, s in states.items()], T0_NS + t * 1_000_000_000)  # type: ignore[arg-type]
-        out += [(float(t), a.state) for _, a in manager.changes_since(before)
-                if a.alert_id is AlertId.CLOSE_QUARTERS]
+        out += [
+            (float(t), a.state)
+            for _, a in manager.changes_since(before)
+            if a.alert_id is AlertId.CLOSE_QUARTERS
+        ]
     return out
 
 
@@ -78,7 +105,9 @@ def test_lost_track_clears_close_quarters_at_once() -> None:
 
 @settings(max_examples=40, deadline=None)
 @given(st.floats(0.0, 1500.0), st.floats(60.0, 340.0), st.floats(1.0, 8.0), st.floats(0, 2 * math.pi))
-def test_raised_exactly_when_inside_the_limits(cpa_m: float, tcpa_s: float, speed: float, angle: float) -> None:
+def test_raised_exactly_when_inside_the_limits(
+    cpa_m: float, tcpa_s: float, speed: float, angle: float
+) -> None:
     """Without uncertainty the alert is raised iff CPA < 500 m (TCPA inside 6 min throughout)."""
     v = (speed * math.sin(angle), speed * math.cos(angle))
     n = (-v[1] / speed, v[0] / speed)
@@ -124,10 +153,12 @@ def test_dark_target_follows_the_flag() -> None:
 
 def test_capacity_caution_at_95_percent_and_full() -> None:
     m = AlertManager(AlertsConfig(enabled=True, confirm_s=2.0), 20)  # 95 % of 20: 19 tracks
+
     def levels(n: int, t0: int) -> set[int]:
         for t in range(t0, t0 + 4):
             m.step([fix(i, t, None) for i in range(1, n + 1)], T0_NS + t * 10**9)
         return {a.instance for a in m.active() if a.alert_id is AlertId.CAPACITY}
+
     assert levels(18, 0) == set()
     assert levels(19, 10) == {1}
     assert levels(20, 20) == {2}
@@ -135,8 +166,11 @@ def test_capacity_caution_at_95_percent_and_full() -> None:
 
 
 def _health(left_fresh: bool, calibration_valid: bool) -> HealthSnapshot:
-    stages = (StageHealth("camera_left", left_fresh, 0.1, None, {}), StageHealth("camera_right", True, 0.1, None, {}),
-              StageHealth("processing", True, 0.1, None, {}))
+    stages = (
+        StageHealth("camera_left", left_fresh, 0.1, None, {}),
+        StageHealth("camera_right", True, 0.1, None, {}),
+        StageHealth("processing", True, 0.1, None, {}),
+    )
     bits = Status.CALIBRATION_VALID if calibration_valid else Status(0)
     state = HealthState.OK if left_fresh and calibration_valid else HealthState.DEGRADED
     return HealthSnapshot(state, "", int(bits), 0, 10.0, 0.1, 5.0, stages)
@@ -146,7 +180,10 @@ def test_appliance_faults_from_health() -> None:
     m = AlertManager(AlertsConfig(enabled=True, confirm_s=1.0), 32)
     for t in range(4):
         m.step([], T0_NS + t * 10**9, _health(False, False))
-    assert {(a.alert_id, a.instance) for a in m.active()} == {(AlertId.CAMERA_LOST, 1), (AlertId.CALIBRATION, 1)}
+    assert {(a.alert_id, a.instance) for a in m.active()} == {
+        (AlertId.CAMERA_LOST, 1),
+        (AlertId.CALIBRATION, 1),
+    }
     assert not m.health_ok
     for t in range(4, 8):
         m.step([], T0_NS + t * 10**9, _health(True, True))

@@ -29,7 +29,7 @@ def _pynmea2_frame(line: str) -> None:
     with pytest.raises(pynmea2.ChecksumError):  # and it does check: one flipped checksum digit
         star = line.index("*")
         wrong = "0" if line[star + 1] != "0" else "1"
-        pynmea2.parse(line[:star + 1] + wrong + line[star + 2:].strip(), check=True)
+        pynmea2.parse(line[: star + 1] + wrong + line[star + 2 :].strip(), check=True)
 
 
 def test_alf_parses_with_pynmeagps() -> None:
@@ -39,7 +39,11 @@ def test_alf_parses_with_pynmeagps() -> None:
     assert (msg.numSen, msg.senNum, msg.seqmid) == (1, 1, 3)
     assert (msg.alertcat, msg.alertpriority, msg.alertstate) == ("A", "A", "V")
     assert tuple(int(v) for v in (msg.alertid, msg.alertinst, msg.revisionctr, msg.escalationctr)) == (
-        191, 305, 1, 0)
+        191,
+        305,
+        1,
+        0,
+    )
     assert msg.alerttxt == "CPA 03 05 150M 4.0MIN"
     assert line.startswith("$RAALF,1,1,3,221320.12,A,A,V,,191,305,1,0,CPA")
 
@@ -58,13 +62,16 @@ def test_alc_entries_fit_and_are_never_split() -> None:
     for k, line in enumerate(lines, start=1):
         msg = _gps(line)
         assert (msg.numSen, msg.senNum, msg.seqmid) == (len(lines), k, 7)
-        fields = line[1:line.index("*")].split(",")
+        fields = line[1 : line.index("*")].split(",")
         n = int(fields[4])
         assert len(fields) == 5 + 4 * n and msg.numAlerts == n  # whole entries only
-        assert [int(getattr(msg, f"alertinst_{i + 1:02d}")) for i in range(n)] == [int(fields[7 + 4 * i])
-                                                                            for i in range(n)]
-        got += [(fields[5 + 4 * i], int(fields[6 + 4 * i]), int(fields[7 + 4 * i]), int(fields[8 + 4 * i]))
-                for i in range(n)]
+        assert [int(getattr(msg, f"alertinst_{i + 1:02d}")) for i in range(n)] == [
+            int(fields[7 + 4 * i]) for i in range(n)
+        ]
+        got += [
+            (fields[5 + 4 * i], int(fields[6 + 4 * i]), int(fields[7 + 4 * i]), int(fields[8 + 4 * i]))
+            for i in range(n)
+        ]
     assert got == entries
 
 
@@ -77,18 +84,46 @@ def test_hbt_parses_with_pynmeagps() -> None:
 def test_alr_parses_with_pynmeagps() -> None:
     msg = _gps(alr("RA", UTC_NS, 10001, True, False, "DARK TARGET 07"))
     assert (msg.msgID, int(msg.alarmnum), msg.alarmcond, msg.alarmstate, msg.alarmtext) == (
-        "ALR", 901, "A", "V", "DARK TARGET 07")
+        "ALR",
+        901,
+        "A",
+        "V",
+        "DARK TARGET 07",
+    )
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.sampled_from([190, 191, 192, 193, 10001, 10002, 10003, 10004]), st.integers(1, 999999),
-       st.integers(1, 99), st.sampled_from("VAN"), st.text(st.characters(min_codepoint=32, max_codepoint=126)
-                                                           .filter(lambda c: c not in "$*,!\\^~"), max_size=60))
-def test_every_alf_and_alr_is_valid(alert_id: int, instance: int, revision: int, state: str, text: str) -> None:
-    line = alf("RA", instance, UTC_NS, "B", "W", state, "XXX" if alert_id >= 10000 else "", alert_id,
-               instance, revision, text)
+@given(
+    st.sampled_from([190, 191, 192, 193, 10001, 10002, 10003, 10004]),
+    st.integers(1, 999999),
+    st.integers(1, 99),
+    st.sampled_from("VAN"),
+    st.text(
+        st.characters(min_codepoint=32, max_codepoint=126).filter(lambda c: c not in "$*,!\\^~"), max_size=60
+    ),
+)
+def test_every_alf_and_alr_is_valid(
+    alert_id: int, instance: int, revision: int, state: str, text: str
+) -> None:
+    line = alf(
+        "RA",
+        instance,
+        UTC_NS,
+        "B",
+        "W",
+        state,
+        "XXX" if alert_id >= 10000 else "",
+        alert_id,
+        instance,
+        revision,
+        text,
+    )
     msg = _gps(line)
-    assert tuple(int(v) for v in (msg.alertid, msg.alertinst, msg.revisionctr)) == (alert_id, instance, revision)
+    assert tuple(int(v) for v in (msg.alertid, msg.alertinst, msg.revisionctr)) == (
+        alert_id,
+        instance,
+        revision,
+    )
     legacy = alr("RA", UTC_NS, alert_id, state != "N", state == "A", text)
     assert _gps(legacy).msgID == "ALR"
 
