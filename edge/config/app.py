@@ -177,6 +177,8 @@ class NmeaPort:
     proprietary: ProprietaryConfig = setting(default_factory=ProprietaryConfig)
     alerts: Literal["alf", "alr", "both", "none"] = setting(
         "alf", doc="with alerts.enabled: IEC 61162-1 ed. 5 ALF/ALC, the legacy ALR, both, or none here")
+    accept_acn: bool = setting(
+        False, doc="read this port: ACN acknowledges an alert; every other line is ignored and counted")
 
 
 @dataclass(frozen=True)
