@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from edge.alerts.config import AlertsConfig
+from edge.encode.registers import MAX_TRACKS_WITH_ALERTS
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
@@ -314,6 +315,10 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
         if url in ports[:i]:
             key = f"outputs.nmea[{i}].url" if i < len(cfg.outputs.nmea) else "outputs.modbus.rtu.url"
             raise ConfigError(file, key, "a serial port not used by another output", url)
+    modbus_on = cfg.outputs.modbus.tcp.enabled or cfg.outputs.modbus.rtu.enabled
+    if cfg.alerts.enabled and modbus_on and cfg.pipeline.max_tracks > MAX_TRACKS_WITH_ALERTS:
+        raise ConfigError(file, "pipeline.max_tracks", f"at most {MAX_TRACKS_WITH_ALERTS} with alerts.enabled and "
+                          "Modbus (the alert block starts at register 900)", cfg.pipeline.max_tracks)
     if cfg.outputs.tracks_csv is not None:
         outputs = replace(cfg.outputs, tracks_csv=str(resolve_path(file, cfg.outputs.tracks_csv)))
         cfg = replace(cfg, outputs=outputs)
