@@ -26,11 +26,11 @@ from pathlib import Path
 from typing import Any, Literal
 
 from edge.alerts.config import AlertsConfig
-from edge.encode.registers import MAX_TRACKS_WITH_ALERTS
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
 from edge.core.site import Site
+from edge.encode.registers import MAX_TRACKS_WITH_ALERTS
 from edge.errors import ConfigError
 
 BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)
@@ -317,8 +317,8 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
             raise ConfigError(file, key, "a serial port not used by another output", url)
     modbus_on = cfg.outputs.modbus.tcp.enabled or cfg.outputs.modbus.rtu.enabled
     if cfg.alerts.enabled and modbus_on and cfg.pipeline.max_tracks > MAX_TRACKS_WITH_ALERTS:
-        raise ConfigError(file, "pipeline.max_tracks", f"at most {MAX_TRACKS_WITH_ALERTS} with alerts.enabled and "
-                          "Modbus (the alert block starts at register 900)", cfg.pipeline.max_tracks)
+        raise ConfigError(file, "pipeline.max_tracks", f"at most {MAX_TRACKS_WITH_ALERTS} with alerts.enabled "
+                          "and Modbus (the alert block starts at register 900)", cfg.pipeline.max_tracks)
     if cfg.outputs.tracks_csv is not None:
         outputs = replace(cfg.outputs, tracks_csv=str(resolve_path(file, cfg.outputs.tracks_csv)))
         cfg = replace(cfg, outputs=outputs)

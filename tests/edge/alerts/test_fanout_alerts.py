@@ -22,23 +22,61 @@ CLOSING = {4: (0.0, 0.0, 0.0, 3.0), 9: (100.0, 1800.0, 0.0, -3.0)}
 
 def fix(track_id: int, t_s: float) -> ShipFix:
     e, n, ve, vn = CLOSING[track_id]
-    return ShipFix(T0_NS + round(t_s * 1e9), track_id, TrackStatus.TRACKING, 0.0, 0.0, 1000.0, 1000.0, 10.0,
-                   34.6, 135.0, 5.8, 0.0, 10.0, 5.0, length_m=80.0,
-                   en_state=(e + ve * t_s, n + vn * t_s, ve, vn), en_cov=COV)
+    return ShipFix(
+        T0_NS + round(t_s * 1e9),
+        track_id,
+        TrackStatus.TRACKING,
+        0.0,
+        0.0,
+        1000.0,
+        1000.0,
+        10.0,
+        34.6,
+        135.0,
+        5.8,
+        0.0,
+        10.0,
+        5.0,
+        length_m=80.0,
+        en_state=(e + ve * t_s, n + vn * t_s, ve, vn),
+        en_cov=COV,
+    )
 
 
 def mbpoll(port: int, start: int, count: int) -> dict[int, int]:
-    out = subprocess.run(["mbpoll", "-1", "-0", "-o", "0.5", "-m", "tcp", "-p", str(port), "-t", "3",
-                          "-r", str(start), "-c", str(count), "127.0.0.1"], capture_output=True, text=True,
-                         timeout=20)
+    out = subprocess.run(
+        [
+            "mbpoll",
+            "-1",
+            "-0",
+            "-o",
+            "0.5",
+            "-m",
+            "tcp",
+            "-p",
+            str(port),
+            "-t",
+            "3",
+            "-r",
+            str(start),
+            "-c",
+            str(count),
+            "127.0.0.1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=20,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     return {int(a): int(v) for a, v in re.findall(r"^\[(\d+)\]:\s+(-?\d+)", out.stdout, re.M)}
 
 
 def test_alert_reaches_nmea_and_modbus() -> None:
     port = free_port()
-    cfg = OutputsConfig(nmea=(NmeaPort(url="loop://"),),
-                        modbus=ModbusConfig(tcp=ModbusTcp(enabled=True, host="127.0.0.1", port=port)))
+    cfg = OutputsConfig(
+        nmea=(NmeaPort(url="loop://"),),
+        modbus=ModbusConfig(tcp=ModbusTcp(enabled=True, host="127.0.0.1", port=port)),
+    )
     health = HealthMonitor(standard_stages(output_stages(cfg)))
     health.set_flags(Status.CALIBRATION_VALID)  # as the daemon does once the calibration loaded
     outputs = Outputs.from_config(cfg, health, max_tracks=32, alerts=AlertsConfig(enabled=True))
@@ -60,6 +98,8 @@ def test_alert_reaches_nmea_and_modbus() -> None:
     assert (first[6], first[7], first[9], first[11]) == (1, 2, 4, 9)  # numbers, track ids (low words)
     assert first[12] == 100 and 270 <= first[13] <= 295  # CPA 100 m, TCPA 300 - t
     serial_counts = {s.name: s.counters for s in health.snapshot().stages}["nmea"]
-    assert serial_counts["alf_sent"] >= 3 and serial_counts["alc_sent"] == 1 and serial_counts["hbt_sent"] == 1
+    assert (
+        serial_counts["alf_sent"] >= 3 and serial_counts["alc_sent"] == 1 and serial_counts["hbt_sent"] == 1
+    )
     serial = next(o for o in outputs.outputs if isinstance(o, NmeaSerialOutput))
     assert serial.scheduler.alert_groups_sent >= 5
