@@ -317,7 +317,8 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
             raise ConfigError(file, key, "a serial port not used by another output", url)
     modbus_on = cfg.outputs.modbus.tcp.enabled or cfg.outputs.modbus.rtu.enabled
     if cfg.alerts.enabled and modbus_on and cfg.pipeline.max_tracks > MAX_TRACKS_WITH_ALERTS:
-        raise ConfigError(file, "pipeline.max_tracks", f"at most {MAX_TRACKS_WITH_ALERTS} with alerts.enabled "
+        raise ConfigError(file, "pipeline.max_tracks",
+                          f"at most {MAX_TRACKS_WITH_ALERTS} with alerts.enabled "
                           "and Modbus (the alert block starts at register 900)", cfg.pipeline.max_tracks)
     if cfg.outputs.tracks_csv is not None:
         outputs = replace(cfg.outputs, tracks_csv=str(resolve_path(file, cfg.outputs.tracks_csv)))
