@@ -22,7 +22,8 @@ Lifecycle under systemd (Type=notify):
   second instead of freezing at its last value; the LEDs follow the health at every blink edge.
 - `record` (run --record DIR): the processed pairs also go to a recording (edge/live_record.py);
   a write failure (disk full) stops the recording with a fault, never the tracking.
-- SIGTERM: STOPPING=1, every live track sent once more as lost, outputs flushed and closed.
+- SIGTERM: STOPPING=1, every live track sent once more as lost (and every active alert cleared,
+  none raised: issue 18), outputs flushed and closed.
 - SIGHUP: the configuration file is loaded and checked first; a broken one is logged and the
   daemon runs on. Otherwise RELOADING=1, the changed parts are swapped in between two pairs,
   then READY=1. Cameras, pipeline and outputs are each rebuilt only if their configuration
@@ -329,7 +330,9 @@ class Appliance:
         """Every live track once more with status L, so receivers drop them now, not at a time-out."""
         lost = [dataclasses.replace(f, status=TrackStatus.LOST) for f in self.last_fixes
                 if f.status is not TrackStatus.LOST]
-        if lost:
+        if self.outputs.alerts is not None:  # issue 18: alerts end with the appliance, none raised now
+            self.outputs.alerts.stop(time.time_ns())
+        if lost or self.outputs.alerts is not None:
             try:
                 self.outputs.publish(lost, time.time_ns())
             except Exception as exc:  # shutting down: report, never hang or raise

@@ -153,6 +153,7 @@ class AlertManager:
         self._tracking: set[int] = set()  # track ids seen T and still live
         self._runs: dict[Key, tuple[_Condition, _Condition]] = {}  # fixed alerts: (raise, clear)
         self.last_utc_ns = 0
+        self.stopped = False  # `stop`: every alert cleared, no new ones (the daemon is shutting down)
 
     # ------------------------------------------------------------ state changes
     def _emit(self, alert: Alert) -> None:
@@ -198,8 +199,17 @@ class AlertManager:
         order = {"E": 0, "A": 1, "W": 2, "C": 3}
         return sorted(self.alerts.values(), key=lambda a: (order[a.priority], a.raised_ns, a.key))
 
+    def stop(self, utc_ns: int) -> None:
+        """The appliance stops: every active alert goes N (sent by the ports' next step) and no
+        alert is raised any more (the shutdown's L fixes are not lost targets)."""
+        for key in list(self.alerts):
+            self._change(key, AlertState.NORMAL, utc_ns)
+        self.stopped = True
+
     # ------------------------------------------------------------ per step
     def step(self, fixes: Sequence[ShipFix], utc_ns: int, health: HealthSnapshot | None = None) -> None:
+        if self.stopped:
+            return
         self.last_utc_ns = utc_ns
         live = [f for f in fixes if f.status is not TrackStatus.LOST]
         tracking = {f.track_id for f in live if f.status is TrackStatus.TRACKING}

@@ -39,6 +39,7 @@ from edge.health import HealthMonitor, HealthSnapshot, Status
 from edge.outputs.base import Output
 from edge.outputs.modbus import ModbusOutput
 from edge.outputs.nmea_serial import NmeaSerialOutput
+from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.outputs.nmea_udp import NmeaUdpOutput
 from edge.outputs.tracks_csv import TracksCsvOutput
 
@@ -117,7 +118,12 @@ class Outputs:
         return fanout
 
     def add(self, output: Output) -> None:
-        """One more output (e.g. the demo's NMEA stream), served with the others of its stage."""
+        """One more output (e.g. the demo's NMEA stream), served with the others of its stage; an
+        NMEA stream gets the alert sentences too when alerts are on."""
+        if self.alerts is not None and isinstance(output, NmeaStreamOutput):
+            if output.scheduler.alerts is None:
+                output.scheduler.alerts = PortAlerts(self.alerts, self.alerts.cfg,
+                                                     digits=output.scheduler.numbers.digits)
         self.outputs.append(output)
         self.outputs.sort(key=lambda o: STAGE_ORDER[o.stage])  # stable: configuration order kept
 

@@ -33,6 +33,9 @@ def test_acn_over_a_pty_acknowledges_the_alert(tmp_path: Path) -> None:
         out.scheduler.alerts = PortAlerts(manager, cfg)
         out.start()
         try:
+            opened = time.monotonic() + 5.0  # input sent before the port is open may be lost
+            while not out.port.stats().connected and time.monotonic() < opened:
+                time.sleep(0.01)
             manager.step([_fix(1)], T0_NS)
             out.publish([_fix(1)])  # the new-target alert 192 for target 01
             body = "IIACN,000000.00,,192,1,A,C"

@@ -188,3 +188,15 @@ def test_appliance_faults_from_health() -> None:
     for t in range(4, 8):
         m.step([], T0_NS + t * 10**9, _health(True, True))
     assert m.active() == [] and m.health_ok
+
+
+def test_stop_clears_every_alert_and_raises_none() -> None:
+    """At shutdown the daemon sends every track once more as L: no lost-target alert for that."""
+    m = AlertManager(AlertsConfig(enabled=True), 32)
+    run(m, {1: (0.0, 0.0, 0.0, 3.0), 2: (100.0, 1800.0, 0.0, -3.0)}, range(0, 10))
+    assert len(m.active()) == 3
+    before = m.sequence
+    m.stop(T0_NS + 10 * 10**9)
+    m.step([fix(1, 10, None, status=TrackStatus.LOST)], T0_NS + 10 * 10**9)
+    assert m.active() == []
+    assert {a.state for _, a in m.changes_since(before)} == {AlertState.NORMAL}
