@@ -221,6 +221,12 @@ class AlertManager:
         if health is not None:
             self._health(health, utc_ns)
 
+    def health_step(self, utc_ns: int, health: HealthSnapshot) -> None:
+        """No pair came (a camera gone): only the appliance-fault alerts and the HBT status move."""
+        if not self.stopped:
+            self.last_utc_ns = max(self.last_utc_ns, utc_ns)
+            self._health(health, self.last_utc_ns)
+
     def _events(self, tracking: set[int], present: set[int], now_ns: int) -> None:
         for tid in sorted(tracking - self._tracking):
             self._raise(AlertId.NEW_TARGET, (tid,), 0, now_ns)

@@ -178,7 +178,13 @@ class Outputs:
 
     def publish_health(self, fixes: Sequence[ShipFix], utc_ns: int) -> None:
         """Only the Modbus image, with the health as it is now (no pair came: nothing new to send on
-        NMEA or to the CSV, but the PLC must see a camera gone as soon as the health does)."""
+        NMEA or to the CSV, but the PLC must see a camera gone as soon as the health does); with
+        alerts on, the NMEA ports also send what alert sentences are due (HBT, a camera-lost ALF)."""
+        if self.alerts is not None:  # a camera gone is an alert, and HBT goes on (with V) meanwhile
+            self.alerts.health_step(utc_ns, self.health.snapshot())
+            for nmea in self.outputs:
+                if isinstance(nmea, NmeaSerialOutput | NmeaUdpOutput | NmeaStreamOutput):
+                    nmea.publish_alerts()
         mine = [out for out in self.outputs if isinstance(out, ModbusOutput)]
         for out in mine:  # counted apart: `sent` stays one image per processed pair
             self.health_images += len(out.publish(fixes, utc_ns))

@@ -99,6 +99,13 @@ class NmeaSerialOutput:
             self.port.submit("".join(group).encode("ascii"))
         return groups
 
+    def publish_alerts(self) -> list[tuple[str, ...]]:
+        """Only the alert sentences due now (the fan-out's call while no pair comes)."""
+        groups = self.scheduler.step_alerts()
+        for group in groups:
+            self.port.submit("".join(group).encode("ascii"))
+        return groups
+
     def close(self) -> None:
         """Give the writer CLOSE_DRAIN_S to send what is queued (the shutdown's L sentences);
         what is left then is counted as dropped, so every scheduled group is accounted for."""

@@ -209,6 +209,18 @@ class NmeaScheduler:
                 track.unsent = False
         return out
 
+    def step_alerts(self) -> list[tuple[str, ...]]:
+        """Only the alert sentences due now, inside the budget (no pair came: no track update)."""
+        now_s = self._clock()
+        self._refill(now_s)
+        out: list[tuple[str, ...]] = []
+        if self.alerts is not None:
+            for group, sent in self.alerts.offers(now_s, self.numbers.reserved_for):
+                if not self._spend(group, out, alert=True):
+                    break
+                sent()
+        return out
+
     def stats(self) -> SchedulerStats:
         return SchedulerStats(
             **self._counts,

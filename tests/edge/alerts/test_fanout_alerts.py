@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 import subprocess
+import time
 
 from helpers import free_port
 
@@ -81,6 +82,10 @@ def test_alert_reaches_nmea_and_modbus() -> None:
     health.set_flags(Status.CALIBRATION_VALID)  # as the daemon does once the calibration loaded
     outputs = Outputs.from_config(cfg, health, max_tracks=32, alerts=AlertsConfig(enabled=True))
     outputs.start()
+    serial = next(o for o in outputs.outputs if isinstance(o, NmeaSerialOutput))
+    opened = time.monotonic() + 5.0  # a port not yet open is a health fault: HBT would say V
+    while not serial.port.stats().connected and time.monotonic() < opened:
+        time.sleep(0.01)
     try:
         for t in range(12):
             for stage in ("camera_left", "camera_right", "processing"):  # as the daemon's threads do
@@ -103,3 +108,42 @@ def test_alert_reaches_nmea_and_modbus() -> None:
     )
     serial = next(o for o in outputs.outputs if isinstance(o, NmeaSerialOutput))
     assert serial.scheduler.alert_groups_sent >= 5
+
+
+def test_camera_lost_alert_and_hbt_v_while_no_pair_comes() -> None:
+    """publish_health (the daemon's call while no pair arrives) raises camera lost after
+    confirm_s and keeps HBT going, with V, on the serial line."""
+    from drivers.serial_port import VirtualSerialPort
+    from edge.alerts.manager import AlertManager
+    from edge.alerts.port import PortAlerts
+
+    now = [0.0]
+    health = HealthMonitor(standard_stages([("nmea", Status.NMEA_ACTIVE)]), clock=lambda: now[0])
+    health.set_flags(Status.CALIBRATION_VALID)
+    cfg = AlertsConfig(enabled=True, heartbeat_s=1)
+    manager = AlertManager(cfg, 32)
+    port = VirtualSerialPort()
+    serial = NmeaSerialOutput("virtual", port=port, clock=lambda: now[0])
+    serial.scheduler.alerts = PortAlerts(manager, cfg)
+    outputs = Outputs([serial], health, manager)
+    outputs.start()
+    try:
+        for k in range(80):  # 8 s at 0.1 s: the right camera beats, the left is gone
+            now[0] = k / 10
+            health.beat("camera_right", frames=1)
+            health.beat("processing")
+            outputs.publish_health([], T0_NS + k * 10**8)
+        deadline = now[0]
+        assert deadline == 7.9
+        data = b""
+        for _ in range(100):
+            data = port.data()
+            if b",10002,1," in data:
+                break
+            time.sleep(0.02)
+    finally:
+        outputs.close()
+    lines = data.decode().splitlines()
+    assert any(",B,W,V,XXX,10002,1,1,0,CAMERA LEFT LOST" in line for line in lines)
+    hbt = [line for line in lines if line.startswith("$RAHBT")]
+    assert len(hbt) >= 7 and all(",V," in line for line in hbt)
