@@ -43,8 +43,9 @@ def alf(talker: str, sequence: int, utc_ns: int, category: str, priority: str, s
 
 def alc(talker: str, sequence: int, entries: Sequence[tuple[str, int, int, int]]) -> list[str]:
     """The ALC (cyclic alert list) sentences for (manufacturer, id, instance, revision) entries,
-    as many entries per sentence as fit 82 characters; `sequence` 0..99. No entries: one
-    sentence with 0 entries."""
+    as many entries per sentence as fit 82 characters, at most 99 sentences (entries beyond,
+    the last given, are left out: pass them most urgent first); `sequence` 0..99. No entries:
+    one sentence with 0 entries."""
     address = check_talker(talker) + "ALC"
     groups: list[list[tuple[str, int, int, int]]] = [[]]
     for entry in entries:
@@ -56,8 +57,7 @@ def alc(talker: str, sequence: int, entries: Sequence[tuple[str, int, int, int]]
             if not groups[-1]:
                 raise
             groups.append([entry])
-    if len(groups) > 99:
-        raise ValueError(f"{len(entries)} alerts need more than 99 ALC sentences")
+    groups = groups[:99]  # the sentence count has 2 digits: the least urgent entries beyond are left out
     return [_alc_line(address, len(groups), k + 1, sequence, g) for k, g in enumerate(groups)]
 
 

@@ -169,6 +169,7 @@ class NmeaScheduler:
         self.alerts: PortAlerts | None = None  # alert sentences, sent first (issue 18)
         self.alert_groups_sent = 0
         self.alert_bytes_sent = 0
+        self.alert_errors = 0
 
     def step(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
         """Take this step's live fixes; return the groups of sentences to send now, in order."""
@@ -176,11 +177,8 @@ class NmeaScheduler:
         self._refill(now_s)
         self._update(fixes, now_s)
         out: list[tuple[str, ...]] = []
-        if self.alerts is not None:  # alerts first: no track update while one waits for the budget
-            for group, sent in self.alerts.offers(now_s, self.numbers.reserved_for):
-                if not self._spend(group, out, alert=True):
-                    return out
-                sent()
+        if self.alerts is not None and not self._alerts_first(now_s, out):  # no track while one waits
+            return out
         for lost in sorted(self._lost.values(), key=lambda e: (e.due_s, e.number)):
             if lost.due_s > now_s:
                 break
@@ -214,12 +212,26 @@ class NmeaScheduler:
         now_s = self._clock()
         self._refill(now_s)
         out: list[tuple[str, ...]] = []
-        if self.alerts is not None:
-            for group, sent in self.alerts.offers(now_s, self.numbers.reserved_for):
-                if not self._spend(group, out, alert=True):
-                    break
-                sent()
+        self._alerts_first(now_s, out)
         return out
+
+    def _alerts_first(self, now_s: float, out: list[tuple[str, ...]]) -> bool:
+        """Spend the due alert sentences; False when one did not fit (it waits, and so do tracks).
+        An error in them is counted and logged once: the track updates go on."""
+        if self.alerts is None:
+            return True
+        try:
+            offers = self.alerts.offers(now_s, self.numbers.reserved_for)
+        except Exception as exc:
+            if not self.alert_errors:
+                log.warning("NMEA: alert sentences failed (counted, logged once): %r", exc)
+            self.alert_errors += 1
+            return True
+        for group, sent in offers:
+            if not self._spend(group, out, alert=True):
+                return False
+            sent()
+        return True
 
     def stats(self) -> SchedulerStats:
         return SchedulerStats(

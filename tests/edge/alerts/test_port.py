@@ -131,3 +131,16 @@ def test_4800_baud_full_track_budget_alerts_go_first() -> None:
     assert first[3:6] == "ALF" and ",191," in first and ",A,A,V," in first
     assert tracks_before > 0.9 * 74 * budget / 127 / 2  # the tracks had the line before (TTM+TLL ~127 B)
     assert rig.scheduler.stats().waiting == 0
+
+
+def test_an_alert_fault_is_counted_and_tracks_go_on() -> None:
+    rig = Rig()
+
+    def broken(now_s: float, number_of: object) -> list:
+        raise RuntimeError("boom")
+
+    rig.port.offers = broken  # type: ignore[method-assign]
+    groups = rig.step(0.0)
+    assert groups and all(g[0][3:6] == "TTM" for g in groups)
+    rig.step(1.0)
+    assert rig.scheduler.alert_errors == 2

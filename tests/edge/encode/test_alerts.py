@@ -146,3 +146,10 @@ def test_acn_parsed_and_everything_else_refused() -> None:
 def test_hbt_interval_bounds(interval: int) -> None:
     with pytest.raises(ValueError):
         hbt("RA", interval, True, 0)
+
+
+def test_alc_keeps_to_99_sentences_most_urgent_first() -> None:
+    entries = [("", 191, 100 * (k % 99) + 1, 1) for k in range(1000)]
+    lines = alc("RA", 0, entries)
+    assert len(lines) == 99 and all(len(line) <= 82 for line in lines)
+    assert lines[0].split(",")[7] == "1"  # the first (most urgent) entry is kept
