@@ -105,6 +105,8 @@ class Alert:
 
     @property
     def priority(self) -> str:
+        if self.alert_id is AlertId.CAPACITY and self.instance == 2:
+            return "W"  # full: a warning; 95 %: a caution
         return PRIORITY[self.alert_id]
 
     @property

@@ -200,3 +200,13 @@ def test_stop_clears_every_alert_and_raises_none() -> None:
     m.step([fix(1, 10, None, status=TrackStatus.LOST)], T0_NS + 10 * 10**9)
     assert m.active() == []
     assert {a.state for _, a in m.changes_since(before)} == {AlertState.NORMAL}
+
+
+def test_capacity_full_is_a_warning_95_percent_a_caution() -> None:
+    m = AlertManager(AlertsConfig(enabled=True, confirm_s=0.0), 20)
+    for t in range(3):
+        m.step([fix(i, t, None) for i in range(19)], T0_NS + t * 10**9)
+    assert [(a.instance, a.priority) for a in m.active() if a.alert_id is AlertId.CAPACITY] == [(1, "C")]
+    for t in range(3, 6):
+        m.step([fix(i, t, None) for i in range(20)], T0_NS + t * 10**9)
+    assert [(a.instance, a.priority) for a in m.active() if a.alert_id is AlertId.CAPACITY] == [(2, "W")]
