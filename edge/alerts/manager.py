@@ -259,6 +259,10 @@ class AlertManager:
         self._pairs = {p: s for p, s in self._pairs.items() if set(p) <= present}
         known = sorted((f for f in tracked if f.en_state is not None and f.en_cov is not None),
                        key=lambda f: f.track_id)
+        ids = {f.track_id for f in known}
+        for pair, state in self._pairs.items():  # not evaluated this step: a run must be in a row
+            if not set(pair) <= ids:
+                state.raise_run, state.clear_run = _Condition(), _Condition()
         if len(known) < 2:
             return
         states = np.array([f.en_state for f in known], float)

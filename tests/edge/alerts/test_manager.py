@@ -210,3 +210,17 @@ def test_capacity_full_is_a_warning_95_percent_a_caution() -> None:
     for t in range(3, 6):
         m.step([fix(i, t, None) for i in range(20)], T0_NS + t * 10**9)
     assert [(a.instance, a.priority) for a in m.active() if a.alert_id is AlertId.CAPACITY] == [(2, "W")]
+
+
+def test_a_gap_in_the_motion_restarts_the_confirmation() -> None:
+    """Danger seen twice, then a step without one ship's motion, then once more: not 3 in a row."""
+    m = AlertManager(AlertsConfig(enabled=True, confirm_s=0.0), 32)
+    states = {1: (0.0, 0.0, 0.0, 3.0), 2: (100.0, 1800.0, 0.0, -3.0)}
+    for t in (0, 1):
+        m.step([fix(i, t, s) for i, s in states.items()], T0_NS + t * 10**9)
+    m.step([fix(1, 2, states[1]), fix(2, 2, None)], T0_NS + 2 * 10**9)
+    m.step([fix(i, 3, s) for i, s in states.items()], T0_NS + 3 * 10**9)
+    assert not any(a.alert_id is AlertId.CLOSE_QUARTERS for a in m.active())
+    for t in (4, 5):
+        m.step([fix(i, t, s) for i, s in states.items()], T0_NS + t * 10**9)
+    assert any(a.alert_id is AlertId.CLOSE_QUARTERS for a in m.active())
