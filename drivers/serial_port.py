@@ -14,6 +14,11 @@ dropped and counted. A writer thread owns the port and:
   the `stalled` flag stays set until a write succeeds. A timed-out write may
   have sent part of its message; the receiver's checksum rejects that line.
 
+Input (optional, `read_lines=True`; issue 18's ACN acknowledgements): between writes the same
+thread reads what the peer sent, splits it into lines (CR/LF) and keeps at most `MAX_RECEIVED`
+of them (oldest dropped, counted) for the caller's `received()`; a line longer than
+`MAX_LINE_BYTES` is garbage, dropped and counted. A read failure is a port loss like a write's.
+
 `PySerialPort` is the real implementation, `VirtualSerialPort` an in-memory
 one for tests and the demo (records bytes, simulates stalls and port loss).
 """
@@ -31,6 +36,8 @@ from typing import Any
 import serial
 
 log = logging.getLogger(__name__)
+MAX_LINE_BYTES = 164  # an input line longer than two NMEA sentences is garbage
+MAX_RECEIVED = 64  # input lines kept for the caller
 
 
 class PortStalled(Exception):
@@ -52,13 +59,16 @@ class PortStats:
     errors: int  # failed opens and failed writes
     reconnects: int  # times the port came back after a fault
     queued: int
+    received_lines: int = 0  # input lines handed to received() (read_lines)
+    received_dropped: int = 0  # input lines dropped: too long, or not collected in time
 
 
 class SerialPortBase(abc.ABC):
     """Bounded drop-oldest queue + writer thread + reconnect with backoff; subclasses do the I/O."""
 
     def __init__(
-        self, name: str, *, queue_max: int = 32, retry_initial_s: float = 0.2, retry_max_s: float = 5.0
+        self, name: str, *, queue_max: int = 32, retry_initial_s: float = 0.2, retry_max_s: float = 5.0,
+        read_lines: bool = False,
     ) -> None:
         if queue_max < 1:
             raise ValueError(f"queue_max must be >= 1, got {queue_max}")
@@ -76,7 +86,10 @@ class SerialPortBase(abc.ABC):
         self._fault = False
         self._stalled = False
         keys = ("submitted", "written_messages", "written_bytes", "dropped", "write_timeouts", "errors")
-        self._counts = dict.fromkeys((*keys, "reconnects"), 0)
+        self._counts = dict.fromkeys((*keys, "reconnects", "received_lines", "received_dropped"), 0)
+        self.read_lines = read_lines
+        self._partial = bytearray()  # input after the last line end
+        self._lines: collections.deque[str] = collections.deque()
 
     # -- the caller's side (never blocks) ---------------------------------------------------
     def submit(self, data: bytes) -> bool:
@@ -116,6 +129,12 @@ class SerialPortBase(abc.ABC):
             self._thread.join(timeout_s)
         self._close_quietly()
 
+    def received(self) -> list[str]:
+        """The input lines read since the last call (without their line ends), oldest first."""
+        with self._cond:
+            lines, self._lines = list(self._lines), collections.deque()
+        return lines
+
     @property
     def healthy(self) -> bool:
         """True while the port is open and writes complete."""
@@ -145,6 +164,13 @@ class SerialPortBase(abc.ABC):
                     continue
                 delay_s = self.retry_initial_s
                 self._up()
+            if self.read_lines:
+                try:
+                    self._take_input(self._read())
+                except Exception as exc:  # a lost port, as for a write
+                    self._failed("read", exc)
+                    self._close_quietly()
+                    continue
             data = self._next(timeout_s=0.2)
             if data is None:
                 continue
@@ -176,6 +202,29 @@ class SerialPortBase(abc.ABC):
             if not self._queue:
                 self._cond.wait(timeout_s)
             return self._queue.popleft() if self._queue else None
+
+    def _take_input(self, data: bytes) -> None:
+        """Split received bytes into lines; keep the last MAX_RECEIVED, drop over-long ones."""
+        if not data:
+            return
+        self._partial += data
+        *done, rest = self._partial.replace(b"\r", b"\n").split(b"\n")
+        self._partial = bytearray(rest)
+        with self._cond:
+            if len(self._partial) > MAX_LINE_BYTES:  # no line end in sight: garbage
+                self._partial.clear()
+                self._counts["received_dropped"] += 1
+            for raw in done:
+                if not raw:
+                    continue
+                if len(raw) > MAX_LINE_BYTES:
+                    self._counts["received_dropped"] += 1
+                    continue
+                if len(self._lines) >= MAX_RECEIVED:
+                    self._lines.popleft()
+                    self._counts["received_dropped"] += 1
+                self._lines.append(raw.decode("ascii", errors="replace"))
+                self._counts["received_lines"] += 1
 
     def _count(self, key: str) -> None:
         with self._cond:
@@ -218,6 +267,10 @@ class SerialPortBase(abc.ABC):
     @abc.abstractmethod
     def _cancel(self) -> None:
         """Unblock a write in progress (called from close(), another thread)."""
+
+    def _read(self) -> bytes:
+        """What the peer sent since the last call, without waiting (only with read_lines)."""
+        return b""
 
 
 class PySerialPort(SerialPortBase):
@@ -264,6 +317,12 @@ class PySerialPort(SerialPortBase):
         except serial.SerialTimeoutException as exc:
             raise PortStalled(str(exc)) from exc
 
+    def _read(self) -> bytes:
+        port = self._serial
+        if port is None:
+            raise OSError(errno.EBADF, "port not open")
+        return bytes(port.read(4096))  # timeout=0: what is there, at once
+
     def _close_port(self) -> None:
         port, self._serial = self._serial, None
         if port is not None:
@@ -297,6 +356,7 @@ class VirtualSerialPort(SerialPortBase):
         self._released.set()
         self._lock = threading.Lock()
         self._data = bytearray()
+        self._input = bytearray()
         self.opens = 0
 
     def set_present(self, present: bool) -> None:
@@ -308,6 +368,16 @@ class VirtualSerialPort(SerialPortBase):
 
     def resume(self) -> None:
         self._released.set()
+
+    def feed(self, data: bytes) -> None:
+        """Bytes the peer sends (read by the writer thread with read_lines)."""
+        with self._lock:
+            self._input += data
+
+    def _read(self) -> bytes:
+        with self._lock:
+            data, self._input = bytes(self._input), bytearray()
+        return data
 
     def data(self) -> bytes:
         """Every byte written so far."""

@@ -22,7 +22,8 @@ Lifecycle under systemd (Type=notify):
   second instead of freezing at its last value; the LEDs follow the health at every blink edge.
 - `record` (run --record DIR): the processed pairs also go to a recording (edge/live_record.py);
   a write failure (disk full) stops the recording with a fault, never the tracking.
-- SIGTERM: STOPPING=1, every live track sent once more as lost, outputs flushed and closed.
+- SIGTERM: STOPPING=1, every live track sent once more as lost (and every active alert cleared,
+  none raised: issue 18), outputs flushed and closed.
 - SIGHUP: the configuration file is loaded and checked first; a broken one is logged and the
   daemon runs on. Otherwise RELOADING=1, the changed parts are swapped in between two pairs,
   then READY=1. Cameras, pipeline and outputs are each rebuilt only if their configuration
@@ -144,7 +145,8 @@ class Appliance:
         site = plan.calibration.site
         assert site is not None  # build() refuses a plan without a site
         outputs = Outputs.from_config(config.outputs, health, max_tracks=config.pipeline.max_tracks,
-                                      site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg)
+                                      site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg,
+                                      alerts=config.alerts)
         for stream in extra_nmea:
             outputs.add(stream)
         return outputs
@@ -328,7 +330,9 @@ class Appliance:
         """Every live track once more with status L, so receivers drop them now, not at a time-out."""
         lost = [dataclasses.replace(f, status=TrackStatus.LOST) for f in self.last_fixes
                 if f.status is not TrackStatus.LOST]
-        if lost:
+        if self.outputs.alerts is not None:  # issue 18: alerts end with the appliance, none raised now
+            self.outputs.alerts.stop(time.time_ns())
+        if lost or self.outputs.alerts is not None:
             try:
                 self.outputs.publish(lost, time.time_ns())
             except Exception as exc:  # shutting down: report, never hang or raise
@@ -345,7 +349,8 @@ class Appliance:
             plan = _plan(config, self.config_file)
             health = _health(config, plan, bool(self.extra_nmea), recording=self.recorder is not None)
             outputs = self._outputs(config, plan, health, self.extra_nmea) \
-                if (config.outputs, config.health) != (self.config.outputs, self.config.health) else None
+                if (config.outputs, config.health, config.alerts) != \
+                (self.config.outputs, self.config.health, self.config.alerts) else None
         except ConfigError as exc:
             self.reload_error = str(exc)
             log.error("reload refused, running on the previous configuration: %s", exc,

@@ -42,3 +42,7 @@ class ShipFix:
     length_m: float | None = None  # apparent ship length estimate
     sog_sigma_kn: float | None = None  # 1-sigma of sog_kn (None with it)
     cog_sigma_deg: float | None = None  # 1-sigma of cog_deg (None with it)
+    dark: bool = False  # no AIS association for ais.dark_after_s (issue 17)
+    # the ground-plane filter's state once its speed is known (SOG shown), for CPA/TCPA (issue 18):
+    en_state: tuple[float, float, float, float] | None = None  # east m, north m, v east m/s, v north m/s
+    en_cov: tuple[float, ...] | None = None  # its 4x4 covariance, row-major (16 values, m and m/s)

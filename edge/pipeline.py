@@ -206,6 +206,7 @@ class Pipeline:
             sog_ok, cog_ok = mo is not None and mo.sog_ok, mo is not None and mo.cog_ok
             x0_rel, _, x1_rel, _ = t.box_rel.tolist()  # t.box's columns, the same sums in Python floats
             u_px = t.point.u
+            en = self.ground.state(t.id) if sog_ok else None  # for CPA/TCPA (edge.alerts)
             fixes.append(ShipFix(
                 t_ns=t_ns + self.utc_offset_ns, track_id=t.id, status=t.status,
                 x_m=x_m, y_m=y_m, z_m=z_m, range_m=r_m, bearing_deg=brg, lat_deg=la, lon_deg=lo,
@@ -213,7 +214,9 @@ class Pipeline:
                 sigma_m=sig_m, disparity_px=d_px, age_s=t.age_s(t_ns), confidence=t.confidence,
                 length_m=((x1_rel + u_px) - (x0_rel + u_px)) * z_m / f,
                 sog_sigma_kn=mo.sog_sigma_kn if mo is not None and sog_ok else None,
-                cog_sigma_deg=mo.cog_sigma_deg if mo is not None and cog_ok else None))
+                cog_sigma_deg=mo.cog_sigma_deg if mo is not None and cog_ok else None,
+                en_state=None if en is None else tuple(en[0].tolist()),
+                en_cov=None if en is None else tuple(en[1].ravel().tolist())))
         return fixes
 
     def _sigma_m(self, world: np.ndarray, xy_l: np.ndarray, d: np.ndarray, sigma_d: np.ndarray,

@@ -9,6 +9,10 @@ runs; NMEA goes through the daemon's `NmeaScheduler` on an unlimited line,
 clocked by the pairs' own timestamps. No wall clock enters anywhere, so the
 same recording gives byte-identical output.
 
+With `alerts.enabled` in the configuration the alert sentences (ALF, ALC, HBT: edge.alerts) go
+out too, before the track updates of each pair, clocked by the same timestamps; HBT says A
+(a recording has no appliance health). Without it the output is as before, byte for byte.
+
 Faults in the recording (missing or corrupt PNGs, sequence gaps, timestamps
 that go back, pairs the pipeline refuses) are counted and reported in the
 summary, never raised. A
@@ -24,6 +28,8 @@ from pathlib import Path
 from typing import TextIO
 
 from drivers.camera.replay import RecordingFormatError, ReplaySource
+from edge.alerts.manager import AlertManager
+from edge.alerts.port import PortAlerts
 from edge.config.app import AppConfig, PipelineConfig, load_config
 from edge.config.calibration import Calibration, recording_calibration
 from edge.encode.tracks_csv import CSV_HEADER, csv_row
@@ -94,6 +100,10 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
     summary = ReplaySummary(pairs_in_recording=len(source), pipeline=pipeline.counters)
     now = [0.0]
     scheduler = NmeaScheduler(NmeaSchedule(), None, clock=lambda: now[0])
+    manager = None
+    if config is not None and config.alerts.enabled:  # issue 18: the alert sentences too
+        manager = AlertManager(config.alerts, config.pipeline.max_tracks)
+        scheduler.alerts = PortAlerts(manager, config.alerts)
     seen: set[int] = set()
     if tracks is not None:
         tracks.write(CSV_HEADER + "\n")
@@ -101,6 +111,8 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
         for pair in source:
             fixes = pipeline.step(pair)
             now[0] = pair.t_ns / 1e9
+            if manager is not None:
+                manager.step(fixes, pair.t_ns)
             for fix in fixes:
                 seen.add(fix.track_id)
                 if tracks is not None:

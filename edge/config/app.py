@@ -25,10 +25,12 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
+from edge.alerts.config import AlertsConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
 from edge.core.site import Site
+from edge.encode.registers import MAX_TRACKS_WITH_ALERTS
 from edge.errors import ConfigError
 
 BAUD_RATES = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)
@@ -179,6 +181,10 @@ class NmeaPort:
     )
     send_acquiring: bool = setting(False, doc="also report acquiring (Q) tracks")
     proprietary: ProprietaryConfig = setting(default_factory=ProprietaryConfig)
+    alerts: Literal["alf", "alr", "both", "none"] = setting(
+        "alf", doc="with alerts.enabled: IEC 61162-1 ed. 5 ALF/ALC, the legacy ALR, both, or none here")
+    accept_acn: bool = setting(
+        False, doc="read this port: ACN acknowledges an alert; every other line is ignored and counted")
 
 
 @dataclass(frozen=True)
@@ -281,6 +287,7 @@ class AppConfig:
     outputs: OutputsConfig = setting(default_factory=OutputsConfig)
     health: HealthConfig = setting(default_factory=HealthConfig)
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
+    alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # issue 18 (edge/alerts/config.py)
 
     @property
     def effective_site(self) -> Site | None:
@@ -313,6 +320,11 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
         if url in ports[:i]:
             key = f"outputs.nmea[{i}].url" if i < len(cfg.outputs.nmea) else "outputs.modbus.rtu.url"
             raise ConfigError(file, key, "a serial port not used by another output", url)
+    modbus_on = cfg.outputs.modbus.tcp.enabled or cfg.outputs.modbus.rtu.enabled
+    if cfg.alerts.enabled and modbus_on and cfg.pipeline.max_tracks > MAX_TRACKS_WITH_ALERTS:
+        raise ConfigError(file, "pipeline.max_tracks",
+                          f"at most {MAX_TRACKS_WITH_ALERTS} with alerts.enabled "
+                          "and Modbus (the alert block starts at register 900)", cfg.pipeline.max_tracks)
     if cfg.outputs.tracks_csv is not None:
         outputs = replace(cfg.outputs, tracks_csv=str(resolve_path(file, cfg.outputs.tracks_csv)))
         cfg = replace(cfg, outputs=outputs)

@@ -24,15 +24,23 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
+from edge.encode.alert_rows import AlertImage, alert_values
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthSnapshot, Status
 
-MAP_VERSION = 1
+MAP_VERSION = 2  # 2: the alert header and block (issue 18), the AIS fields (issue 17)
 PROBE_VALUE = 0x12345678
 TRACK_BASE = 100
 TRACK_STRIDE = 20
 DEFAULT_MAX_TRACKS = 32
-BLOCKS = {"identity": (0, 16), "health": (16, TRACK_BASE - 16), "track": (TRACK_BASE, TRACK_STRIDE)}
+ALERT_BLOCK = 900  # issue 18: the alert block (present with alerts.enabled), slots from ALERT_SLOT_BASE
+ALERT_SLOT_BASE = 910
+ALERT_STRIDE = 16
+ALERT_SLOTS = 16
+MAX_TRACKS_WITH_ALERTS = 36  # track slots and the AIS MMSI block (2 per slot after them) end below 900
+BLOCKS = {"identity": (0, 16), "health": (16, TRACK_BASE - 16), "track": (TRACK_BASE, TRACK_STRIDE),
+          "alert": (ALERT_BLOCK, ALERT_SLOT_BASE - ALERT_BLOCK),
+          "alert_slot": (ALERT_SLOT_BASE, ALERT_STRIDE)}
 TYPES = {"u16": (1, False), "i16": (1, True), "u32": (2, False), "i32": (2, True)}  # words, signed
 NA_U16, NA_I16, NA_U32, NA_I32 = 0xFFFF, 0x8000, 0xFFFFFFFF, 0x7FFFFFFF
 SLOT_STATUS = {None: 0, TrackStatus.ACQUIRING: 1, TrackStatus.TRACKING: 2, TrackStatus.LOST: 3}
@@ -115,6 +123,32 @@ FIELDS: tuple[Field, ...] = (
     _f("SEQ", "track", 19, "u16", 1, "", None,
        "UPDATE_COUNTER of the snapshot this slot was written in", 1 << 16),
 )
+FIELDS += (  # issue 18: alerts (edge.alerts); all 0 / "not available" with alerts off
+    _f("ALERTS_ACTIVE", "health", 44, "u16", 1, "", None, "Active alerts (address 60)"),
+    _f("ALERTS_UNACK", "health", 45, "u16", 1, "", None, "Active alerts not acknowledged"),
+    _f("ALERTS_RAISED", "health", 46, "u16", 1, "", None, "Alerts raised since start, wraps", 1 << 16),
+    _f("HBT_STATUS", "health", 47, "u16", 1, "", None, "NMEA HBT status: 2 A (health OK), 1 V, 0 alerts off"),
+    _f("ALERT_BLOCK_ADDR", "health", 48, "u16", 1, "", None,
+       f"Address of the alert block (= {ALERT_BLOCK}); 0 with alerts off"),
+    _f("ALERT_COUNT", "alert", 0, "u16", 1, "", None, "Active alerts (all, including any without a slot)"),
+    _f("ALERT_SLOTS", "alert", 1, "u16", 1, "", None, f"Alert slots M (= {ALERT_SLOTS})"),
+    _f("ALERT_BASE", "alert", 2, "u16", 1, "", None, f"Address of alert slot 0 (= {ALERT_SLOT_BASE})"),
+    _f("ALERT_STRIDE", "alert", 3, "u16", 1, "", None, f"Registers per alert slot (= {ALERT_STRIDE})"),
+    _f("ALERT_ID", "alert_slot", 0, "u16", 1, "", None,
+       "0 empty, else the ALF alert id (190-193, 10001-10004: README Alerts)"),
+    _f("ALERT_INSTANCE", "alert_slot", 1, "u32", 1, "", NA_U32, "ALF alert instance (first NMEA port's)"),
+    _f("ALERT_STATE", "alert_slot", 3, "u16", 1, "", None,
+       "0 empty, 1 active unacknowledged (V), 2 acknowledged (A)"),
+    _f("ALERT_PRIORITY", "alert_slot", 4, "u16", 1, "", None, "0 empty, 1 alarm, 2 warning, 3 caution"),
+    _f("ALERT_REVISION", "alert_slot", 5, "u16", 1, "", None, "ALF revision counter 1-99"),
+    _f("ALERT_TARGET_A", "alert_slot", 6, "u16", 1, "", NA_U16, "NMEA target number of the (first) ship"),
+    _f("ALERT_TARGET_B", "alert_slot", 7, "u16", 1, "", NA_U16, "Close quarters: the other ship's number"),
+    _f("ALERT_TRACK_A", "alert_slot", 8, "u32", 1, "", NA_U32, "Track id of the (first) ship"),
+    _f("ALERT_TRACK_B", "alert_slot", 10, "u32", 1, "", NA_U32, "Close quarters: the other ship's track id"),
+    _f("ALERT_CPA", "alert_slot", 12, "u16", 1, "m", NA_U16, "Close quarters: CPA now"),
+    _f("ALERT_TCPA", "alert_slot", 13, "i16", 1, "s", NA_I16, "Close quarters: TCPA now (negative: passed)"),
+    _f("ALERT_AGE", "alert_slot", 14, "u16", 1, "s", NA_U16, "Time since the alert was raised"),
+)
 BY_NAME = {f.name: f for f in FIELDS}
 BLOCK_FIELDS = {block: tuple(f for f in FIELDS if f.block == block) for block in BLOCKS}
 
@@ -139,13 +173,19 @@ class Identity:
     word_order: WordOrder = WordOrder.HIGH_FIRST
     site_lat_deg: float | None = None
     site_lon_deg: float | None = None
+    alert_slots: int = 0  # issue 18: ALERT_SLOTS with alerts.enabled, else 0 (no alert block)
 
     def __post_init__(self) -> None:
         if not 1 <= self.max_tracks <= (0x10000 - TRACK_BASE) // TRACK_STRIDE:
             raise ValueError(f"max_tracks {self.max_tracks} does not fit the 16-bit address space")
+        if self.alert_slots and self.max_tracks > MAX_TRACKS_WITH_ALERTS:
+            raise ValueError(f"with the alert block at {ALERT_BLOCK} max_tracks must be "
+                             f"<= {MAX_TRACKS_WITH_ALERTS}")
 
     @property
     def size(self) -> int:
+        if self.alert_slots:
+            return ALERT_SLOT_BASE + ALERT_STRIDE * self.alert_slots
         return TRACK_BASE + TRACK_STRIDE * self.max_tracks
 
 
@@ -175,6 +215,10 @@ def address_of(name: str, slot: int | None = None) -> int:
         if slot is None or slot < 0:
             raise ValueError(f"{name} is a track field: give slot >= 0")
         return TRACK_BASE + TRACK_STRIDE * slot + f.offset
+    if f.block == "alert_slot":
+        if slot is None or slot < 0:
+            raise ValueError(f"{name} is an alert-slot field: give slot >= 0")
+        return ALERT_SLOT_BASE + ALERT_STRIDE * slot + f.offset
     return BLOCKS[f.block][0] + f.offset
 
 
@@ -252,7 +296,8 @@ def assign_slots(fixes: Sequence[ShipFix], previous: Sequence[int | None]
 
 def build_snapshot(fixes: Sequence[ShipFix], health: HealthSnapshot, identity: Identity,
                    previous: SlotAssignment, *, utc_ns: int,
-                   target_numbers: Mapping[int, int] | None = None) -> RegisterSnapshot:
+                   target_numbers: Mapping[int, int] | None = None,
+                   alerts: AlertImage | None = None) -> RegisterSnapshot:
     """Pure: the complete register image for this moment.
 
     `fixes` holds one ShipFix per live track (a track missing from it is gone
@@ -281,6 +326,19 @@ def build_snapshot(fixes: Sequence[ShipFix], health: HealthSnapshot, identity: I
     for k, tid in enumerate(slots):
         fx = by_id.get(tid) if tid is not None else None
         write(TRACK_BASE + TRACK_STRIDE * k, "track", _slot_values(fx, numbers, utc_ns, counter))
+    if alerts is not None:  # issue 18: the header's alert fields, and the block when it exists
+        header = alerts.header(ALERT_BLOCK if identity.alert_slots else 0)
+        for f in BLOCK_FIELDS["health"][-5:]:
+            at = BLOCKS["health"][0] + f.offset
+            regs[at:at + f.words] = encode(f, header[f.name], order)
+    if identity.alert_slots:
+        rows = alerts.rows if alerts is not None else ()
+        write(ALERT_BLOCK, "alert", {"ALERT_COUNT": len(rows), "ALERT_SLOTS": identity.alert_slots,
+                                     "ALERT_BASE": ALERT_SLOT_BASE, "ALERT_STRIDE": ALERT_STRIDE})
+        for k in range(identity.alert_slots):
+            row = rows[k] if k < len(rows) else None
+            write(ALERT_SLOT_BASE + ALERT_STRIDE * k, "alert_slot",
+                  alert_values(row, [f.name for f in BLOCK_FIELDS["alert_slot"]]))
     return RegisterSnapshot(tuple(regs), SlotAssignment(slots, counter), unslotted)
 
 
@@ -297,7 +355,8 @@ def _health_values(h: HealthSnapshot, identity: Identity, utc_ns: int, counter: 
             "ACTIVE_TRACKS": active, "FRAME_RATE": h.frame_rate_hz, "LATENCY": h.latency_s,
             "UPTIME": math.floor(h.uptime_s), "SNAPSHOT_UTC": utc_ns // 1_000_000_000,
             "SNAPSHOT_MS": (utc_ns // 1_000_000 % 1000) / 1000, "UPDATE_COUNTER": counter,
-            "SITE_LAT": identity.site_lat_deg, "SITE_LON": identity.site_lon_deg}
+            "SITE_LAT": identity.site_lat_deg, "SITE_LON": identity.site_lon_deg,
+            "ALERTS_ACTIVE": 0, "ALERTS_UNACK": 0, "ALERTS_RAISED": 0, "HBT_STATUS": 0, "ALERT_BLOCK_ADDR": 0}
 
 
 def _slot_values(fx: ShipFix | None, numbers: Mapping[int, int], utc_ns: int,
@@ -348,7 +407,10 @@ def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for block, (base, bsize) in BLOCKS.items():
-        prefix, base_shown = ("T+", 0) if block == "track" else ("", base)
+        if block == "alert":
+            out.append(f"| {size}–{ALERT_BLOCK - 1} | — | reserved (issue 17's AIS block, then unused) "
+                       "| | | | Reads 0; present only with alerts.enabled |")
+        prefix, base_shown = {"track": ("T+", 0), "alert_slot": ("A+", 0)}.get(block, ("", base))
         rows = [(f.offset, f"| {prefix}{_span(base_shown + f.offset, f.words)} | {f.name} | {f.type} "
                  f"| {f.scale:g} | {f.unit} | {'' if f.na is None else f'0x{f.na:X}'} "
                  f"| {f.description} |") for f in FIELDS if f.block == block]
@@ -356,5 +418,9 @@ def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
         out += [row for _, row in sorted(rows)]
     out += ["", "STATUS bits: " + ", ".join(f"{m.value.bit_length() - 1} {m.name}" for m in Status) + ".",
             "FAULT_CODE = 10 × stage + kind; stages 1 camera_left, 2 camera_right, 3 processing, "
-            "4… outputs in configuration order; kind 1 no heartbeat, 2 fault reported."]
+            "4… outputs in configuration order; kind 1 no heartbeat, 2 fault reported.",
+            f"Alert block (issue 18, only with alerts.enabled; then max_tracks <= {MAX_TRACKS_WITH_ALERTS}): "
+            f"900–{ALERT_SLOT_BASE - 1}, then {ALERT_SLOTS} alert slots, slot k at A = {ALERT_SLOT_BASE} + "
+            f"{ALERT_STRIDE}·k, most urgent first; the map then ends at "
+            f"{ALERT_SLOT_BASE + ALERT_STRIDE * ALERT_SLOTS - 1}."]
     return "\n".join(out) + "\n"

@@ -53,6 +53,19 @@ class TargetNumbers:
         """The number of a live track, or None."""
         return self._live.get(track_id)
 
+    def reserved_for(self, track_id: int) -> int | None:
+        """The number a track holds or held: live, lost (L being sent) or in quarantine; else None
+        (alerts about a lost target keep showing its number: edge.alerts.port)."""
+        if track_id in self._live:
+            return self._live[track_id]
+        for number, owner in self._lost.items():
+            if owner == track_id:
+                return number
+        for number, (owner, _) in self._quarantine.items():
+            if owner == track_id:
+                return number
+        return None
+
     def assign(self, track_id: int, now_s: float) -> int | None:
         """The track's number: its current one, its old one back, a free one, or None if all are busy."""
         if track_id in self._live:

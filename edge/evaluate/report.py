@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+import edge.evaluate.alerts as evaluate_alerts
 import edge.evaluate.metrics as em
 import edge.evaluate.motion as evaluate_motion
 import edge.evaluate.sigma as es
@@ -210,7 +211,8 @@ def evaluate_recording(root: Path, stages: bool | None, plot_dir: Path | None,
     summary = {"recording": str(root), "scenario": name, "counters": vars(product.counters), "bins": rows,
                "id_switches": ev.id_switches, "first_t_s": delays, "false_fixes": len(ev.false_fixes),
                "sigma": sig, "sigma_criterion": calibration,
-               "motion": motion_table(fixes["product"], ev, meta, product)}
+               "motion": motion_table(fixes["product"], ev, meta, product),
+               "alerts": alert_table(fixes["product"], root)}
     if stages and ships:
         main = max(ships, key=lambda s: sum(m.ship_id == s.ship_id for m in ev.matched)).ship_id
         env = stage_envelopes(results, main, f, product.rig.baseline_m)
@@ -234,6 +236,14 @@ def motion_table(fixes: dict[int, list], ev: em.Evaluation, meta: dict, product:
     rows = evaluate_motion.motion_rows(fixes, ev.matched, meta, product.site)
     evaluate_motion.print_motion(rows)
     return rows
+
+
+def alert_table(fixes: dict[int, list], root: Path) -> list[dict]:
+    """Close-quarters alerts: lead time against the truth's CPA, false and missed (edge.evaluate.alerts)."""
+    rows, missed = evaluate_alerts.evaluate_alerts(fixes, read_truth(root))
+    print("\nclose-quarters alerts (default alerts settings) against the truth's CPA/TCPA")
+    print("\n".join(evaluate_alerts.format_rows(rows, missed)))
+    return [vars(r) for r in rows] + [{"missed": m} for m in missed]
 
 
 def diagnose_recording(root: Path, subpixel: str | None = None) -> None:

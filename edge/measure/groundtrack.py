@@ -366,6 +366,14 @@ class GroundTracks:
             entry.offset_px = centre_px - point_px
         return point_px + entry.offset_px, point_noise_px
 
+    def state(self, track_id: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The track's combined east/north state (e, n, ve, vn) and its 4x4 covariance (the IMM's
+        output, for CPA/TCPA: edge.core.cpa); None before its first fix."""
+        entry = self._by_id.get(track_id)
+        if entry is None or not entry.track.started:
+            return None
+        return entry.track.state()
+
     def motion(self, track_id: int) -> Motion | None:
         """The track's east/north velocity and its speed and course sigmas, with whether each is shown
         (its sigma met the configured bound, with `_latch`'s hysteresis; the speed's holds for

@@ -12,6 +12,11 @@ image. Stages are served in order (NMEA, CSV, then Modbus), so the register imag
 health of this step's other outputs. Modbus shows the NMEA target number of the first NMEA
 serial port (each port has its own allocator: numbers are per receiver); with no NMEA port the
 field reads "not available".
+
+Alerts (issue 18, `alerts.enabled`): one `AlertManager` is stepped with each step's fixes and the
+health before any output publishes; every NMEA output whose port does not say `alerts: none` gets
+its own `PortAlerts` (its target numbers, its sentences), and Modbus shows the alert block with
+the first serial port's numbers.
 """
 
 from __future__ import annotations
@@ -23,13 +28,18 @@ from collections.abc import Callable, Sequence
 
 from drivers.modbus import ModbusRtuServer, ModbusServer, ModbusTcpServer
 from edge import __version__
+from edge.alerts.config import AlertsConfig
+from edge.alerts.manager import AlertManager, AlertState
+from edge.alerts.port import PortAlerts
 from edge.config.app import OutputsConfig
-from edge.encode.registers import Identity, WordOrder
+from edge.encode.alert_rows import AlertImage, AlertRow
+from edge.encode.registers import ALERT_SLOTS, Identity, WordOrder
 from edge.fix import ShipFix
 from edge.health import HealthMonitor, HealthSnapshot, Status
 from edge.outputs.base import Output
 from edge.outputs.modbus import ModbusOutput
 from edge.outputs.nmea_serial import NmeaSerialOutput
+from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.outputs.nmea_udp import NmeaUdpOutput
 from edge.outputs.tracks_csv import TracksCsvOutput
 
@@ -62,8 +72,10 @@ def firmware_version() -> tuple[int, int, int]:
 class Outputs:
     """Publishes fixes to every output and reports their health; see the module docstring."""
 
-    def __init__(self, outputs: Sequence[Output], health: HealthMonitor) -> None:
+    def __init__(self, outputs: Sequence[Output], health: HealthMonitor,
+                 alerts: AlertManager | None = None) -> None:
         self.health = health
+        self.alerts = alerts
         self.outputs: list[Output] = []
         self.sent: Counter[str] = Counter()  # items published since start, per unit
         self.health_images = 0  # Modbus images republished while no pair came (publish_health)
@@ -73,10 +85,22 @@ class Outputs:
     @classmethod
     def from_config(cls, cfg: OutputsConfig, health: HealthMonitor, *, max_tracks: int,
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
-                    clock: Callable[[], float] = time.monotonic) -> Outputs:
-        outputs: list[Output] = [NmeaSerialOutput.from_config(p) for p in cfg.nmea]
+                    clock: Callable[[], float] = time.monotonic,
+                    alerts: AlertsConfig | None = None) -> Outputs:
+        manager = AlertManager(alerts, max_tracks) if alerts is not None and alerts.enabled else None
+        outputs: list[Output] = []
+        for port in cfg.nmea:
+            serial = NmeaSerialOutput.from_config(port)
+            if manager is not None and alerts is not None and port.alerts != "none":
+                serial.scheduler.alerts = PortAlerts(manager, alerts, talker=port.talker, mode=port.alerts,
+                                                     digits=serial.scheduler.numbers.digits)
+            outputs.append(serial)
         if cfg.udp.enabled:
-            outputs.append(NmeaUdpOutput.from_config(cfg.udp))
+            udp = NmeaUdpOutput.from_config(cfg.udp)
+            if manager is not None and alerts is not None:
+                udp.scheduler.alerts = PortAlerts(manager, alerts, talker=cfg.udp.source[:2],
+                                                  digits=udp.scheduler.numbers.digits)
+            outputs.append(udp)
         if cfg.tracks_csv is not None:
             outputs.append(TracksCsvOutput(cfg.tracks_csv))
         servers: list[ModbusServer] = []
@@ -85,22 +109,48 @@ class Outputs:
         if cfg.modbus.rtu.enabled:
             rtu = cfg.modbus.rtu
             servers.append(ModbusRtuServer(rtu.url, rtu.unit, rtu.baud, rtu.parity, rtu.stopbits))
-        fanout = cls(outputs, health)
+        fanout = cls(outputs, health, manager)
         if servers:
             order = WordOrder.HIGH_FIRST if cfg.modbus.word_order == "high_first" else WordOrder.LOW_FIRST
             fanout.add_modbus(servers, Identity(firmware_version(), max_tracks, order, site_lat_deg,
-                                                site_lon_deg), clock)
+                                                site_lon_deg, ALERT_SLOTS if manager is not None else 0),
+                              clock)
         return fanout
 
     def add(self, output: Output) -> None:
-        """One more output (e.g. the demo's NMEA stream), served with the others of its stage."""
+        """One more output (e.g. the demo's NMEA stream), served with the others of its stage; an
+        NMEA stream gets the alert sentences too when alerts are on."""
+        if self.alerts is not None and isinstance(output, NmeaStreamOutput):
+            if output.scheduler.alerts is None:
+                output.scheduler.alerts = PortAlerts(self.alerts, self.alerts.cfg,
+                                                     digits=output.scheduler.numbers.digits)
         self.outputs.append(output)
         self.outputs.sort(key=lambda o: STAGE_ORDER[o.stage])  # stable: configuration order kept
 
     def add_modbus(self, servers: Sequence[ModbusServer], identity: Identity,
                    clock: Callable[[], float] = time.monotonic) -> None:
         """The Modbus servers as one output, publishing this fan-out's health and target numbers."""
-        self.add(ModbusOutput(servers, identity, self.health.snapshot, self.target_numbers, clock))
+        self.add(ModbusOutput(servers, identity, self.health.snapshot, self.target_numbers, clock,
+                              None if self.alerts is None else self.alert_image))
+
+    def alert_image(self) -> AlertImage | None:
+        """The alert manager's state for Modbus, with the first serial port's target numbers."""
+        manager = self.alerts
+        if manager is None:
+            return None
+        first = next((o for o in self.outputs if isinstance(o, NmeaSerialOutput)), None)
+        port = None if first is None else first.scheduler.alerts
+        numbers = None if first is None else first.scheduler.numbers
+        rows = []
+        for a in manager.active():
+            tracks = (a.tracks + (None, None))[:2]
+            targets = tuple(None if t is None or numbers is None else numbers.reserved_for(t) for t in tracks)
+            instance = a.instance if not a.tracks else None if port is None else port.instance(a)
+            rows.append(AlertRow(int(a.alert_id), instance, a.state is AlertState.ACTIVE_ACK, a.priority,
+                                 a.revision, (targets[0], targets[1]), (tracks[0], tracks[1]), a.cpa_m,
+                                 a.tcpa_s, max(0.0, (manager.last_utc_ns - a.raised_ns) / 1e9)))
+        unack = sum(a.state is AlertState.ACTIVE_UNACK for a in manager.active())
+        return AlertImage(tuple(rows), unack, manager.raised, manager.health_ok)
 
     def start(self) -> None:
         for out in self.outputs:
@@ -111,6 +161,8 @@ class Outputs:
         stage: str | None = None
         faults: list[str] = []
         counters: Counter[str] = Counter()
+        if self.alerts is not None:  # before any output: each renders this step's alerts
+            self.alerts.step(fixes, utc_ns, self.health.snapshot())
         for out in self.outputs:
             if out.stage != stage:
                 self._beat(stage, faults, counters)
@@ -126,7 +178,13 @@ class Outputs:
 
     def publish_health(self, fixes: Sequence[ShipFix], utc_ns: int) -> None:
         """Only the Modbus image, with the health as it is now (no pair came: nothing new to send on
-        NMEA or to the CSV, but the PLC must see a camera gone as soon as the health does)."""
+        NMEA or to the CSV, but the PLC must see a camera gone as soon as the health does); with
+        alerts on, the NMEA ports also send what alert sentences are due (HBT, a camera-lost ALF)."""
+        if self.alerts is not None:  # a camera gone is an alert, and HBT goes on (with V) meanwhile
+            self.alerts.health_step(utc_ns, self.health.snapshot())
+            for nmea in self.outputs:
+                if isinstance(nmea, NmeaSerialOutput | NmeaUdpOutput | NmeaStreamOutput):
+                    nmea.publish_alerts()
         mine = [out for out in self.outputs if isinstance(out, ModbusOutput)]
         for out in mine:  # counted apart: `sent` stays one image per processed pair
             self.health_images += len(out.publish(fixes, utc_ns))

@@ -16,7 +16,7 @@ import logging
 from collections.abc import Callable, Sequence
 
 from drivers.modbus import ModbusServer
-from edge.encode.registers import Identity, SlotAssignment, build_snapshot
+from edge.encode.registers import AlertImage, Identity, SlotAssignment, build_snapshot
 from edge.fix import ShipFix
 from edge.health import HealthSnapshot
 
@@ -70,8 +70,9 @@ class ModbusOutput:
     def __init__(self, servers: Sequence[ModbusServer], identity: Identity,
                  snapshot: Callable[[], HealthSnapshot],
                  target_numbers: Callable[[Sequence[ShipFix]], dict[int, int]],
-                 clock: Callable[[], float]) -> None:
+                 clock: Callable[[], float], alerts: Callable[[], AlertImage | None] | None = None) -> None:
         self.identity = identity
+        self._alerts = alerts  # issue 18: the alert header and block
         self._slots = [_ServerSlot(s, clock) for s in servers]
         self._snapshot, self._target_numbers = snapshot, target_numbers
         self._assignment = SlotAssignment.empty(identity.max_tracks)
@@ -89,7 +90,8 @@ class ModbusOutput:
 
     def publish(self, fixes: Sequence[ShipFix], utc_ns: int) -> list[tuple[int, ...]]:
         image = build_snapshot(fixes, self._snapshot(), self.identity, self._assignment,
-                               utc_ns=utc_ns, target_numbers=self._target_numbers(fixes))
+                               utc_ns=utc_ns, target_numbers=self._target_numbers(fixes),
+                               alerts=None if self._alerts is None else self._alerts())
         self._assignment = image.assignment
         self.fixes_in += len(fixes)
         self.fixes_unslotted += len(image.unslotted)

@@ -62,6 +62,7 @@ class NmeaSerialOutput:
         utilisation: float = 0.9,
         queue_max: int = 32,
         write_timeout_s: float = 1.0,
+        read_lines: bool = False,
         port: SerialPortBase | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
@@ -71,21 +72,36 @@ class NmeaSerialOutput:
         self.scheduler = NmeaScheduler(schedule, self.bytes_per_s, clock)
         self.port = port if port is not None else PySerialPort(
             url, baudrate=baud, bytesize=bytesize, parity=parity, stopbits=stopbits, xonxoff=xonxoff,
-            rtscts=rtscts, write_timeout_s=write_timeout_s, queue_max=queue_max,
+            rtscts=rtscts, write_timeout_s=write_timeout_s, queue_max=queue_max, read_lines=read_lines,
         )  # fmt: skip
+        self.received_ignored = 0  # input lines with no alerts to apply them to (issue 18)
 
     @classmethod
     def from_config(cls, cfg: NmeaPort, **kwargs: Any) -> NmeaSerialOutput:
         """Build from one `outputs.nmea[i]` entry of the appliance configuration."""
         return cls(cfg.url, schedule_from_config(cfg), baud=cfg.baud, bytesize=cfg.bytesize,
-                   parity=cfg.parity, stopbits=cfg.stopbits, **kwargs)
+                   parity=cfg.parity, stopbits=cfg.stopbits, read_lines=cfg.accept_acn, **kwargs)
 
     def start(self) -> None:
         self.port.start()
 
     def publish(self, fixes: Iterable[ShipFix], utc_ns: int = 0) -> list[tuple[str, ...]]:
-        """Schedule this step's fixes and queue what fits the budget; returns the queued groups."""
+        """Schedule this step's fixes and queue what fits the budget; returns the queued groups.
+        Lines the port received (`accept_acn`) go to the port's alerts first (an ACN), or are counted."""
+        if self.port.read_lines:
+            for line in self.port.received():
+                if self.scheduler.alerts is not None:
+                    self.scheduler.alerts.receive(line)
+                else:
+                    self.received_ignored += 1
         groups = self.scheduler.step(fixes)
+        for group in groups:
+            self.port.submit("".join(group).encode("ascii"))
+        return groups
+
+    def publish_alerts(self) -> list[tuple[str, ...]]:
+        """Only the alert sentences due now (the fan-out's call while no pair comes)."""
+        groups = self.scheduler.step_alerts()
         for group in groups:
             self.port.submit("".join(group).encode("ascii"))
         return groups
@@ -111,4 +127,11 @@ class NmeaSerialOutput:
             "serial_submitted": port.submitted, "serial_written": port.written_messages,
             **fix_counters(sched),
         }  # fmt: skip
+        if self.scheduler.alerts is not None:  # issue 18: alert sentences and what was received
+            counters.update(self.scheduler.alerts.counts)
+            counters["alert_bytes"] = self.scheduler.alert_bytes_sent
+        if self.port.read_lines:  # input: lines read, dropped, and those with no alerts to go to
+            counters.update(serial_received=port.received_lines,
+                            serial_received_dropped=port.received_dropped,
+                            received_without_alerts=self.received_ignored)
         return fault, counters

@@ -33,7 +33,13 @@ class NmeaStreamOutput:
         """Nothing to open: the stream is the caller's."""
 
     def publish(self, fixes: Iterable[ShipFix], utc_ns: int = 0) -> list[tuple[str, ...]]:
-        groups = self.scheduler.step(fixes)
+        return self._write(self.scheduler.step(fixes))
+
+    def publish_alerts(self) -> list[tuple[str, ...]]:
+        """Only the alert sentences due now (the fan-out's call while no pair comes)."""
+        return self._write(self.scheduler.step_alerts())
+
+    def _write(self, groups: list[tuple[str, ...]]) -> list[tuple[str, ...]]:
         if not groups:
             return groups
         try:

@@ -72,8 +72,15 @@ class NmeaUdpOutput:
 
     def publish(self, fixes: Iterable[ShipFix], utc_ns: int = 0) -> list[bytes]:
         """Schedule this step's fixes and send one datagram per sentence; returns the datagrams."""
+        return self._send(self.scheduler.step(fixes))
+
+    def publish_alerts(self) -> list[bytes]:
+        """Only the alert sentences due now (the fan-out's call while no pair comes)."""
+        return self._send(self.scheduler.step_alerts())
+
+    def _send(self, groups: list[tuple[str, ...]]) -> list[bytes]:
         datagrams = []
-        for group in self.scheduler.step(fixes):
+        for group in groups:
             for line in group:
                 datagram = udpbc_datagram(line, self.source, self._line_count)
                 self._line_count = next_line_count(self._line_count)

@@ -19,6 +19,9 @@ target) to send now. Rules (OUTPUTS.md):
 - A track enters NMEA once it is T (Q too only if `send_acquiring`); target
   numbers come from `TargetNumbers`. With all numbers busy a new track waits
   (counted, logged once) and is served in track-id order when one frees.
+- Alerts first (issue 18): with `alerts` set (an `edge.alerts.port.PortAlerts`), its due
+  sentences (ALF/ALR on change, ALC, HBT, repeats) are spent from the same bucket before any lost
+  or live track update; one that does not fit holds everything behind it until the bucket refills.
 - A fix that cannot be framed (e.g. a field too long for 82 characters) is
   refused and counted, never sent half-right.
 
@@ -60,6 +63,7 @@ from edge.encode.targets import TargetNumbers
 from edge.fix import ShipFix, TrackStatus
 
 if TYPE_CHECKING:
+    from edge.alerts.port import PortAlerts
     from edge.config.app import NmeaPort, UdpConfig
 
 log = logging.getLogger(__name__)
@@ -162,6 +166,10 @@ class NmeaScheduler:
         keys = ("groups_sent", "lost_groups_sent", "bytes_sent", "refused", "tracks_waited", "fixes_in",
                 "fixes_sent", "fixes_superseded", "fixes_no_number", "fixes_not_eligible", "fixes_refused")
         self._counts = dict.fromkeys(keys, 0)
+        self.alerts: PortAlerts | None = None  # alert sentences, sent first (issue 18)
+        self.alert_groups_sent = 0
+        self.alert_bytes_sent = 0
+        self.alert_errors = 0
 
     def step(self, fixes: Iterable[ShipFix]) -> list[tuple[str, ...]]:
         """Take this step's live fixes; return the groups of sentences to send now, in order."""
@@ -169,6 +177,8 @@ class NmeaScheduler:
         self._refill(now_s)
         self._update(fixes, now_s)
         out: list[tuple[str, ...]] = []
+        if self.alerts is not None and not self._alerts_first(now_s, out):  # no track while one waits
+            return out
         for lost in sorted(self._lost.values(), key=lambda e: (e.due_s, e.number)):
             if lost.due_s > now_s:
                 break
@@ -197,6 +207,32 @@ class NmeaScheduler:
                 track.unsent = False
         return out
 
+    def step_alerts(self) -> list[tuple[str, ...]]:
+        """Only the alert sentences due now, inside the budget (no pair came: no track update)."""
+        now_s = self._clock()
+        self._refill(now_s)
+        out: list[tuple[str, ...]] = []
+        self._alerts_first(now_s, out)
+        return out
+
+    def _alerts_first(self, now_s: float, out: list[tuple[str, ...]]) -> bool:
+        """Spend the due alert sentences; False when one did not fit (it waits, and so do tracks).
+        An error in them is counted and logged once: the track updates go on."""
+        if self.alerts is None:
+            return True
+        try:
+            offers = self.alerts.offers(now_s, self.numbers.reserved_for)
+        except Exception as exc:
+            if not self.alert_errors:
+                log.warning("NMEA: alert sentences failed (counted, logged once): %r", exc)
+            self.alert_errors += 1
+            return True
+        for group, sent in offers:
+            if not self._spend(group, out, alert=True):
+                return False
+            sent()
+        return True
+
     def stats(self) -> SchedulerStats:
         return SchedulerStats(
             **self._counts,
@@ -213,12 +249,16 @@ class NmeaScheduler:
             self._tokens = min(self.capacity, self._tokens + elapsed_s * self.bytes_per_s)
         self._last_s = now_s
 
-    def _spend(self, group: tuple[str, ...], out: list[tuple[str, ...]]) -> bool:
+    def _spend(self, group: tuple[str, ...], out: list[tuple[str, ...]], alert: bool = False) -> bool:
         cost = sum(len(line) for line in group)
         if cost > self._tokens:
             return False
         self._tokens -= cost
         out.append(group)
+        if alert:  # not a track update: kept out of the track accounting
+            self.alert_groups_sent += 1
+            self.alert_bytes_sent += cost
+            return True
         self._counts["groups_sent"] += 1
         self._counts["bytes_sent"] += cost
         return True

@@ -77,7 +77,7 @@ def tcp_args(server: ModbusTcpServer, unit: int = 1) -> list[str]:
 def check_scaled_values(conn: list[str], target: str) -> None:
     """Identity, health and slot 1 read by mbpoll, decoded by hand from the documented scales."""
     rc, ident, _ = mbpoll(*conn, "-t", "3", "-r", "0", "-c", "10", target)
-    assert rc == 0 and [ident[a] for a in (0, 1, 2, 3, 6, 7, 8, 9)] == [1, 0, 1, 0, 32, 100, 20, 0]
+    assert rc == 0 and [ident[a] for a in (0, 1, 2, 3, 6, 7, 8, 9)] == [2, 0, 1, 0, 32, 100, 20, 0]
     rc, probe, _ = mbpoll(*conn, "-t", "3:int", "-B", "-r", "4", "-c", "1", target)
     assert rc == 0 and probe[4] == 0x12345678
     rc, h, _ = mbpoll(*conn, "-t", "3", "-r", "16", "-c", "12", target)
@@ -326,7 +326,7 @@ def test_garbage_is_counted_and_others_keep_being_served(tcp) -> None:
         await bad.writer.drain()
         assert (await good.read(4, 4, 2)) == [0x1234, 0x5678]
         await asyncio.sleep(0.2)
-        assert (await bad.read(4, 0, 1)) == [1]  # the same connection resynchronised
+        assert (await bad.read(4, 0, 1)) == [2]  # map version 2: the same connection resynchronised
         bad.tid += 1
         bad.writer.write(struct.pack(">HHHBBHH", bad.tid, 0, 6, 1, 0x41, 0, 1))  # no such function
         assert await bad.response() == ExceptionCode.ILLEGAL_FUNCTION

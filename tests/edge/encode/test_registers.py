@@ -13,6 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from edge.encode.registers import (
+    ALERT_SLOT_BASE,
+    ALERT_STRIDE,
     BY_NAME,
     FIELDS,
     PROBE_VALUE,
@@ -62,7 +64,7 @@ def words(regs, at: int, n: int = 1) -> tuple[int, ...]:
 def test_identity_block_and_probe(order: WordOrder, probe: tuple[int, int]) -> None:
     ident = Identity((1, 2, 3), max_tracks=4, word_order=order)
     regs = build([], ident).registers
-    assert words(regs, 0, 10) == (1, 1, 2, 3, *probe, 4, 100, 20, int(order))
+    assert words(regs, 0, 10) == (2, 1, 2, 3, *probe, 4, 100, 20, int(order))  # map version 2 (issues 17, 18)
     assert read_field(regs, "PROBE", word_order=order) == PROBE_VALUE
     assert words(regs, 10, 6) == (0,) * 6  # reserved
 
@@ -198,17 +200,20 @@ def test_addresses() -> None:
         address_of("LAT")
 
 
-def _covered(table: str) -> tuple[list[int], list[int]]:
-    fixed, slot = [], []
-    for m in re.finditer(r"^\| (T\+)?(\d+)(?:–(\d+))? \|", table, re.M):
+def _covered(table: str) -> tuple[list[int], list[int], list[int]]:
+    fixed, slot, alert = [], [], []
+    for m in re.finditer(r"^\| ([TA]\+)?(\d+)(?:–(\d+))? \|", table, re.M):
         cells = range(int(m[2]), int(m[3] or m[2]) + 1)
-        (slot if m[1] else fixed).extend(cells)
-    return fixed, slot
+        {"T+": slot, "A+": alert, None: fixed}[m[1]].extend(cells)
+    return fixed, slot, alert
 
 
 def test_table_documents_every_address_once() -> None:
-    fixed, slot = _covered(render_markdown_table())
-    assert sorted(fixed) == list(range(TRACK_BASE)) and sorted(slot) == list(range(TRACK_STRIDE))
+    fixed, slot, alert = _covered(render_markdown_table())
+    track_end = TRACK_BASE + TRACK_STRIDE * 32
+    # identity and health, then (issue 18) the gap after the slots and the alert block's head
+    assert sorted(fixed) == list(range(TRACK_BASE)) + list(range(track_end, ALERT_SLOT_BASE))
+    assert sorted(slot) == list(range(TRACK_STRIDE)) and sorted(alert) == list(range(ALERT_STRIDE))
     for f in FIELDS:
         assert f"| {f.name} |" in render_markdown_table()
     assert BY_NAME["LAT"].scale == 1e-7
