@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 import pytest
+from helpers import band_texture
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from edge.core.match import Match, match_point
 from edge.measure.depthcheck import GAIN, MAX_SIGMA_PX, OFFSETS, SUB_WINDOW, DepthCheck
-from helpers import band_texture
 
 H, W, U, V, D_PX = 41, 96, 60, 20, 6.0
 
