@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
+from edge.config.ais import AisConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
@@ -276,6 +277,7 @@ class AppConfig:
     outputs: OutputsConfig = setting(default_factory=OutputsConfig)
     health: HealthConfig = setting(default_factory=HealthConfig)
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
+    ais: AisConfig | None = setting(None, doc="AIS input and association (issue 17); null: off")
 
     @property
     def effective_site(self) -> Site | None:

@@ -366,6 +366,15 @@ class GroundTracks:
             entry.offset_px = centre_px - point_px
         return point_px + entry.offset_px, point_noise_px
 
+    def position(self, track_id: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The track's filtered east/north position (m) and its 2x2 covariance; None before its
+        first fix (the AIS association's gate, edge.ais.associate)."""
+        entry = self._by_id.get(track_id)
+        if entry is None or not entry.track.started:
+            return None
+        x, p = entry.track.state()
+        return x[:2].copy(), p[:2, :2].copy()
+
     def motion(self, track_id: int) -> Motion | None:
         """The track's east/north velocity and its speed and course sigmas, with whether each is shown
         (its sigma met the configured bound, with `_latch`'s hysteresis; the speed's holds for
