@@ -73,10 +73,10 @@ class Outputs:
     @classmethod
     def from_config(cls, cfg: OutputsConfig, health: HealthMonitor, *, max_tracks: int,
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
-                    clock: Callable[[], float] = time.monotonic) -> Outputs:
-        outputs: list[Output] = [NmeaSerialOutput.from_config(p) for p in cfg.nmea]
+                    clock: Callable[[], float] = time.monotonic, dark_prefix: str = "DARK") -> Outputs:
+        outputs: list[Output] = [NmeaSerialOutput.from_config(p, dark_prefix) for p in cfg.nmea]
         if cfg.udp.enabled:
-            outputs.append(NmeaUdpOutput.from_config(cfg.udp))
+            outputs.append(NmeaUdpOutput.from_config(cfg.udp, dark_prefix))
         if cfg.tracks_csv is not None:
             outputs.append(TracksCsvOutput(cfg.tracks_csv))
         servers: list[ModbusServer] = []

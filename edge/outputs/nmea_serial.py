@@ -75,9 +75,9 @@ class NmeaSerialOutput:
         )  # fmt: skip
 
     @classmethod
-    def from_config(cls, cfg: NmeaPort, **kwargs: Any) -> NmeaSerialOutput:
+    def from_config(cls, cfg: NmeaPort, dark_prefix: str = "DARK", **kwargs: Any) -> NmeaSerialOutput:
         """Build from one `outputs.nmea[i]` entry of the appliance configuration."""
-        return cls(cfg.url, schedule_from_config(cfg), baud=cfg.baud, bytesize=cfg.bytesize,
+        return cls(cfg.url, schedule_from_config(cfg, dark_prefix), baud=cfg.baud, bytesize=cfg.bytesize,
                    parity=cfg.parity, stopbits=cfg.stopbits, **kwargs)
 
     def start(self) -> None:

@@ -62,9 +62,9 @@ class NmeaUdpOutput:
         self._line_count = 1
 
     @classmethod
-    def from_config(cls, cfg: UdpConfig, **kwargs: Any) -> NmeaUdpOutput:
+    def from_config(cls, cfg: UdpConfig, dark_prefix: str = "DARK", **kwargs: Any) -> NmeaUdpOutput:
         """Build from the `outputs.udp` entry of the appliance configuration."""
-        return cls(schedule_from_config(cfg), group=cfg.group, port=cfg.port, interface=cfg.interface,
+        return cls(schedule_from_config(cfg, dark_prefix), group=cfg.group, port=cfg.port, interface=cfg.interface,
                    ttl=cfg.ttl, source=cfg.source, **kwargs)
 
     def start(self) -> None:
