@@ -87,8 +87,8 @@ class Associator:
         self.state: dict[int, _State] = {}
         self.switches = 0  # a track's reported MMSI changed from one to another
 
-    def step(self, t_ns: int, tracks: list[TrackGeometry], targets: list[Predicted], input_start_ns: int | None,
-             live_ids: set[int]) -> dict[int, Association]:
+    def step(self, t_ns: int, tracks: list[TrackGeometry], targets: list[Predicted],
+             input_start_ns: int | None, live_ids: set[int]) -> dict[int, Association]:
         """The association of every T track in `tracks`; tracks not in `live_ids` are forgotten."""
         self.state = {k: v for k, v in self.state.items() if k in live_ids}
         assigned: dict[int, int] = {}

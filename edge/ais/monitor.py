@@ -94,9 +94,10 @@ class Residual:
     bearing_sigma_deg: float
 
 
-def residual(mmsi: int, measured_d_px: float, measured_sigma_d_px: float, measured_bearing_deg: float,
-             expected_world_m: np.ndarray, expected_bearing_deg: float,
-             expected_range_m: float, position_sigma_m: float, focal_px: float, baseline_m: float) -> Residual:
+def residual(mmsi: int, measured_d_px: float, measured_sigma_d_px: float,
+             measured_bearing_deg: float, expected_world_m: np.ndarray, expected_bearing_deg: float,
+             expected_range_m: float, position_sigma_m: float, focal_px: float,
+             baseline_m: float) -> Residual:
     """The residuals of one fix against one expected point (see the module docstring)."""
     z = float(expected_world_m[2])
     d_exp = focal_px * baseline_m / z  # eq. 2.12

@@ -80,8 +80,8 @@ class AisStage:
                 out.append(f)
                 continue
             target = self.table.targets.get(a.mmsi) if a.mmsi is not None else None
-            out.append(dataclasses.replace(f, ais_mmsi=a.mmsi, ais_name=None if target is None else target.name,
-                                           dark=a.dark))
+            name = None if target is None else target.name
+            out.append(dataclasses.replace(f, ais_mmsi=a.mmsi, ais_name=name, dark=a.dark))
             if a.mmsi is not None and self.cfg.monitor.enabled and a.mmsi in by_mmsi:
                 self._monitor(f, by_mmsi[a.mmsi])
         self._log_fault()

@@ -94,7 +94,8 @@ class TargetTable:
                 self.counters.too_old += 1
 
     def antenna_en_m(self, report: PositionReport) -> np.ndarray:
-        world = geodetic_to_world(np.array(report.lat_deg), np.array(report.lon_deg), np.array(0.0), self.site)
+        lat, lon = np.array(report.lat_deg), np.array(report.lon_deg)
+        world = geodetic_to_world(lat, lon, np.array(0.0), self.site)
         return world_to_enu(world, self.site.heading_deg)[:2]
 
     def predict(self, t_ns: int) -> list[Predicted]:

@@ -66,7 +66,8 @@ def _velocity(ship: Ship, t_s: float) -> tuple[float, float]:
     return x1 - x0, z1 - z0
 
 
-def ais_lines(scenario: Scenario, ships: list[Ship], duration_s: float, seed: int = 0) -> list[tuple[int, str]]:
+def ais_lines(scenario: Scenario, ships: list[Ship], duration_s: float,
+              seed: int = 0) -> list[tuple[int, str]]:
     """(t_ns, sentence) of every AIS line in [0, duration_s), in time order."""
     spec = scenario.spec
     site = scenario.site

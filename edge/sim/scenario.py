@@ -58,7 +58,7 @@ class ShipAisSpec:
     """The AIS transponder a ship carries (edge.sim.ais; issue 17)."""
 
     mmsi: int = setting(min=100_000_000, max=999_999_999, doc="the ship's MMSI (9 digits)")
-    ais_class: Literal["A", "B"] = setting("A", doc="class A (SOTDMA, type 1 and 5) or B (CS, type 18 and 24)")
+    ais_class: Literal["A", "B"] = setting("A", doc="class A (type 1 and 5) or B (CS: type 18 and 24)")
     name: str = setting("", pattern="[A-Z0-9 @.,-]{0,20}", doc="ship name in the static data (20 characters)")
     accurate: bool = setting(True, doc="position accuracy flag: 1 = better than 10 m (DGNSS)")
     gnss_sigma_m: float | None = setting(
