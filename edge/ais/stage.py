@@ -155,6 +155,7 @@ class AisStage:
                 out[name] = round(1000.0 * e.value)
                 out[name.replace("offset", "sigma")] = round(1000.0 * e.sigma)
         out["monitor_ships"] = max(d.ships, b.ships)
+        out["disparity_fault"], out["bearing_fault"] = int(d.fault), int(b.fault)
         return out
 
     def _log_fault(self) -> None:

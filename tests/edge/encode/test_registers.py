@@ -62,9 +62,10 @@ def words(regs, at: int, n: int = 1) -> tuple[int, ...]:
 def test_identity_block_and_probe(order: WordOrder, probe: tuple[int, int]) -> None:
     ident = Identity((1, 2, 3), max_tracks=4, word_order=order)
     regs = build([], ident).registers
-    assert words(regs, 0, 10) == (1, 1, 2, 3, *probe, 4, 100, 20, int(order))
+    assert words(regs, 0, 11) == (2, 1, 2, 3, *probe, 4, 100, 20, int(order), 180)
     assert read_field(regs, "PROBE", word_order=order) == PROBE_VALUE
-    assert words(regs, 10, 6) == (0,) * 6  # reserved
+    assert words(regs, 11, 5) == (0,) * 5  # reserved
+    assert read_field(regs, "MMSI_BASE") == 100 + 20 * 4  # map version 2: the MMSI block follows the slots
 
 
 def test_worked_example_slot_matches_the_research_note() -> None:
@@ -183,7 +184,7 @@ def test_overflow_prefers_tracking_then_nearest() -> None:
 def test_update_counter_wraps_and_map_is_complete() -> None:
     snap = build([fix(5)], previous=SlotAssignment((None,) * 4, update_counter=0xFFFF))
     assert snap.registers[27] == 0 and snap.assignment.update_counter == 0
-    assert len(snap.registers) == 100 + 20 * 4
+    assert len(snap.registers) == 100 + 20 * 4 + 2 * 4  # the slots, then one u32 MMSI per slot
     assert all(0 <= r <= 0xFFFF for r in snap.registers)
     with pytest.raises(ValueError, match="duplicate"):
         build([fix(5), fix(5)])
