@@ -12,7 +12,8 @@ Layout: identity block at 0, health block at 16, track slots of fixed stride
 from 100 (slot k at 100 + 20k), then (map version 2, issue 17) one u32 MMSI per slot from
 MMSI_BASE = 100 + 20N (740 with the default 32 slots). The AIS calibration monitor and input
 counters sit in the health block at 40-55; they are read from the `ais` health stage's counters
-(milli-units there, so the registers carry them unchanged) and are "not available" without it. Scaled integers: stored = round(value / scale),
+(milli-units there, so the registers carry them unchanged) and are "not available" without it.
+Scaled integers: stored = round(value / scale),
 saturated just short of the sentinel (angles and counters wrap instead).
 32-bit values use the configured word order (default high word first); the
 PROBE register reads 0x12345678 in that order. A slot keeps its row while its
@@ -415,8 +416,8 @@ def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
         f"registers (FC3, 40001 + address); addresses are 0-based. The map covers 0–{size - 1} "
         f"without gaps (N = {max_tracks} slots by default); writes and addresses outside it get "
         "exception 02. Slot k starts at T = 100 + 20·k; its MMSI is at M = MMSI_BASE + 2·k "
-        f"(MMSI_BASE = 100 + 20·N = {TRACK_BASE + TRACK_STRIDE * max_tracks}). Stored value = physical value / scale, "
-        "rounded; an empty \"Not available\" cell means the value is always valid; 32-bit values "
+        f"(MMSI_BASE = 100 + 20·N = {TRACK_BASE + TRACK_STRIDE * max_tracks}). "
+        "Stored value = physical value / scale, rounded; an empty \"Not available\" cell means the value is always valid; 32-bit values "
         "high word first unless WORD_ORDER says otherwise.",
         "",
         "| Address | Name | Type | Scale | Unit | Not available | Description |",
@@ -431,5 +432,6 @@ def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
         out += [row for _, row in sorted(rows)]
     out += ["", "STATUS bits: " + ", ".join(f"{m.value.bit_length() - 1} {m.name}" for m in Status) + ".",
             "FAULT_CODE = 10 × stage + kind; stages 1 camera_left, 2 camera_right, 3 processing, "
-            "4… outputs in configuration order, 90 ais (when configured); kind 1 no heartbeat, 2 fault reported."]
+            "4… outputs in configuration order, 90 ais (when configured); "
+            "kind 1 no heartbeat, 2 fault reported."]
     return "\n".join(out) + "\n"
