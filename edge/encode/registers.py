@@ -417,8 +417,8 @@ def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
         f"without gaps (N = {max_tracks} slots by default); writes and addresses outside it get "
         "exception 02. Slot k starts at T = 100 + 20·k; its MMSI is at M = MMSI_BASE + 2·k "
         f"(MMSI_BASE = 100 + 20·N = {TRACK_BASE + TRACK_STRIDE * max_tracks}). "
-        "Stored value = physical value / scale, rounded; an empty \"Not available\" cell means the value is always valid; 32-bit values "
-        "high word first unless WORD_ORDER says otherwise.",
+        "Stored value = physical value / scale, rounded; an empty \"Not available\" cell means the "
+        "value is always valid; 32-bit values high word first unless WORD_ORDER says otherwise.",
         "",
         "| Address | Name | Type | Scale | Unit | Not available | Description |",
         "|---|---|---|---|---|---|---|",
