@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TextIO
 
 from drivers.camera.replay import RecordingFormatError, ReplaySource
-from edge.ais.stage import AisStage
+from edge.ais.stage import AisStage, feed_until
 from edge.config.ais import AisConfig
 from edge.config.app import AppConfig, PipelineConfig, load_config
 from edge.config.calibration import Calibration, recording_calibration
@@ -127,9 +127,7 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
             fixes = pipeline.step(pair)
             if ais is not None:  # the lines received up to this exposure, then the association
                 stage, lines = ais
-                while ais_next < len(lines) and lines[ais_next][0] <= pair.t_ns:
-                    stage.feed(*lines[ais_next])
-                    ais_next += 1
+                ais_next = feed_until(stage, lines, ais_next, pair.t_ns)
                 fixes = stage.annotate(fixes, pipeline.ground.position)
             now[0] = pair.t_ns / 1e9
             for fix in fixes:

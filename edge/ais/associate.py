@@ -17,7 +17,9 @@ Assignment: scipy's `linear_sum_assignment` over all tracks and targets, cost = 
 reported one only after it has been the assignment for `confirm_s` unchanged; losing an
 association takes the same. A T track without a reported association for `dark_after_s`, counted
 from its first T fix, its last association or the AIS input's warm-up (whichever is latest),
-is dark.
+is dark. A fix carries its track's MMSI only when this pair's assignment agrees: a fix outside
+its target's gate (an occlusion mixing two ships' points, a jump to the neighbour) is not
+labelled with an identity its own position contradicts, while the track keeps it.
 """
 
 from __future__ import annotations
@@ -54,8 +56,9 @@ class _State:
 
 @dataclass(frozen=True)
 class Association:
-    mmsi: int | None
+    mmsi: int | None  # the track's reported MMSI
     dark: bool
+    this_pair: bool = True  # this pair's assignment agrees with `mmsi` (else the fix does not carry it)
 
 
 def hull_cov(heading_rad: float, length_m: float, beam_m: float) -> np.ndarray:
@@ -122,5 +125,5 @@ class Associator:
                 since = max(st.first_t_ns, st.last_assoc_ns or st.first_t_ns,
                             ready_ns if ready_ns is not None else t_ns)
                 st.dark = ready_ns is not None and t_ns - since >= self.dark_after_ns
-            out[tr.track_id] = Association(st.reported, st.dark)
+            out[tr.track_id] = Association(st.reported, st.dark, got == st.reported)
         return out

@@ -32,6 +32,15 @@ log = logging.getLogger(__name__)
 Geometry = Callable[[int], tuple[np.ndarray, np.ndarray] | None]  # track id -> (east/north, cov)
 
 
+def feed_until(stage: AisStage, lines: Sequence[tuple[int, str]], index: int, t_ns: int) -> int:
+    """Feed `lines[index:]` received at or before `t_ns` (a recording's ais.csv, in order); the
+    index of the next line. Replay and evaluation use it; the daemon drains its driver instead."""
+    while index < len(lines) and lines[index][0] <= t_ns:
+        stage.feed(*lines[index])
+        index += 1
+    return index
+
+
 class AisStage:
     """Decoder, target table, association and monitor of one appliance."""
 
@@ -79,10 +88,11 @@ class AisStage:
             if a is None:
                 out.append(f)
                 continue
-            target = self.table.targets.get(a.mmsi) if a.mmsi is not None else None
+            mmsi = a.mmsi if a.this_pair else None
+            target = self.table.targets.get(mmsi) if mmsi is not None else None
             name = None if target is None else target.name
-            out.append(dataclasses.replace(f, ais_mmsi=a.mmsi, ais_name=name, dark=a.dark))
-            if a.mmsi is not None and self.cfg.monitor.enabled and a.mmsi in by_mmsi:
+            out.append(dataclasses.replace(f, ais_mmsi=mmsi, ais_name=name, dark=a.dark))
+            if mmsi is not None and self.cfg.monitor.enabled and mmsi in by_mmsi:
                 self._monitor(f, by_mmsi[a.mmsi])
         self._log_fault()
         return out

@@ -90,6 +90,10 @@ def recording_meta(sim: Simulation, n_triggers: int) -> dict:
             entry["ais"] = {"mmsi": ship_spec.ais.mmsi, "class": ship_spec.ais.ais_class,
                             "accurate": ship_spec.ais.accurate,
                             "antenna_m": [round(v, 3) for v in antenna_m(ship, ship_spec.ais)]}
+    extra: dict = {}
+    if any(s.ais is not None for s in spec.ships):  # what the AIS calibration check should find
+        extra["ais_injected"] = {"right_yaw_deg": float(spec.rig_error.right_rotation_deg[1]),
+                                 "heading_deg": float(spec.rig_error.heading_deg)}
     if spec.rig_error.heading_deg:
         notes += f" AIS positions on a site heading {spec.rig_error.heading_deg:+g} deg from the stated one."
     return build_meta(
@@ -101,6 +105,7 @@ def recording_meta(sim: Simulation, n_triggers: int) -> dict:
         seed=sim.seed,
         triggers=n_triggers,
         ships=ships,
+        **extra,
     )
 
 
