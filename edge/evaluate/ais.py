@@ -99,7 +99,8 @@ def ais_report(fixes: dict[int, list[ShipFix]], ev: em.Evaluation, meta: dict, s
               f"{_fmt(r['right_share'], '.1%'):>6} {r['wrong']:>6} {r['dark']:>5} {delay_text:>16}")
     print(f"wrong associations {out['wrong_associations']} (false fixes with an MMSI "
           f"{out['false_fixes_with_mmsi']}; against a pair-by-pair truth match: "
-          f"{out['per_pair_wrong']} wrong, {out['per_pair_dark_ais']} dark on an AIS ship); dark flag precision {_fmt(out['dark_precision'], '.1%')}, "
+          f"{out['per_pair_wrong']} wrong, {out['per_pair_dark_ais']} dark on an AIS ship); "
+          f"dark flag precision {_fmt(out['dark_precision'], '.1%')}, "
           f"recall {_fmt(out['dark_recall'], '.1%')} (per T fix); AIS ships ever dark "
           f"{out['ais_ships_flagged_dark']}")
     d, b = stage.estimates()
