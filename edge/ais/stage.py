@@ -169,10 +169,11 @@ class AisStage:
         return out
 
     def _log_fault(self) -> None:
+        """The journal gets the check's fault once when it is raised and once when it clears."""
         fault = self.fault()
-        if fault != self._fault_logged:
+        if (fault is None) != (self._fault_logged is None):
             if fault is not None:
                 log.warning("%s", fault)
-            elif self._fault_logged is not None:
+            else:
                 log.info("calibration check: offsets back within their bounds")
             self._fault_logged = fault

@@ -27,8 +27,10 @@ from edge.pipeline import Pipeline
 
 
 def _mmsi_by_ship(meta: dict) -> dict[int, int | None]:
-    return {int(s["id"]): (int(s["ais"]["mmsi"]) if isinstance(s.get("ais"), dict) else None)
-            for s in meta.get("ships", [])}
+    return {
+        int(s["id"]): (int(s["ais"]["mmsi"]) if isinstance(s.get("ais"), dict) else None)
+        for s in meta.get("ships", [])
+    }
 
 
 def ais_figures(fixes: dict[int, list[ShipFix]], ev: em.Evaluation, meta: dict) -> dict:
@@ -74,48 +76,73 @@ def ais_figures(fixes: dict[int, list[ShipFix]], ev: em.Evaluation, meta: dict) 
         share = row["right"] / row["fixes"] if truth is not None and row["fixes"] else None
         ships.append({"ship": sid, "mmsi": truth, **row, "right_share": share, "dark_after_first_t_s": delay})
     wrong = sum(r["wrong"] for r in ships) + false_with_mmsi
-    return {"ships": ships, "wrong_associations": wrong, "false_fixes_with_mmsi": false_with_mmsi,
-            "per_pair_wrong": per_pair_wrong, "per_pair_dark_ais": per_pair_dark_ais,
-            "dark_precision": tp / (tp + fp) if tp + fp else None,
-            "dark_recall": tp / (tp + fn) if tp + fn else None,
-            "ais_ships_flagged_dark": sum(1 for r in ships if r["mmsi"] is not None and r["dark"] > 0)}
+    return {
+        "ships": ships,
+        "wrong_associations": wrong,
+        "false_fixes_with_mmsi": false_with_mmsi,
+        "per_pair_wrong": per_pair_wrong,
+        "per_pair_dark_ais": per_pair_dark_ais,
+        "dark_precision": tp / (tp + fp) if tp + fp else None,
+        "dark_recall": tp / (tp + fn) if tp + fn else None,
+        "ais_ships_flagged_dark": sum(1 for r in ships if r["mmsi"] is not None and r["dark"] > 0),
+    }
 
 
 def _fmt(v: float | None, spec: str) -> str:
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else format(v, spec)
 
 
-def ais_report(fixes: dict[int, list[ShipFix]], ev: em.Evaluation, meta: dict, stage: AisStage,
-               product: Pipeline) -> dict:
+def ais_report(
+    fixes: dict[int, list[ShipFix]], ev: em.Evaluation, meta: dict, stage: AisStage, product: Pipeline
+) -> dict:
     """Print and return the AIS figures of one recording."""
     out = ais_figures(fixes, ev, meta)
     print("AIS association (issue 17): T fixes by the ship their track follows (majority truth match)")
-    print(f"{'ship':>5} {'mmsi':>10} {'T fixes':>8} {'right':>6} {'share':>6} {'wrong':>6} {'dark':>5} "
-          f"{'dark after 1st T':>16}")
+    print(
+        f"{'ship':>5} {'mmsi':>10} {'T fixes':>8} {'right':>6} {'share':>6} {'wrong':>6} {'dark':>5} "
+        f"{'dark after 1st T':>16}"
+    )
     for r in out["ships"]:
         delay = r["dark_after_first_t_s"]
         delay_text = "-" if delay is None else f"{delay:.1f} s"
-        print(f"{r['ship']:>5} {r['mmsi'] or 'none':>10} {r['fixes']:>8} {r['right']:>6} "
-              f"{_fmt(r['right_share'], '.1%'):>6} {r['wrong']:>6} {r['dark']:>5} {delay_text:>16}")
-    print(f"wrong associations {out['wrong_associations']} (false fixes with an MMSI "
-          f"{out['false_fixes_with_mmsi']}; against a pair-by-pair truth match: "
-          f"{out['per_pair_wrong']} wrong, {out['per_pair_dark_ais']} dark on an AIS ship); "
-          f"dark flag precision {_fmt(out['dark_precision'], '.1%')}, "
-          f"recall {_fmt(out['dark_recall'], '.1%')} (per T fix); AIS ships ever dark "
-          f"{out['ais_ships_flagged_dark']}")
+        print(
+            f"{r['ship']:>5} {r['mmsi'] or 'none':>10} {r['fixes']:>8} {r['right']:>6} "
+            f"{_fmt(r['right_share'], '.1%'):>6} {r['wrong']:>6} {r['dark']:>5} {delay_text:>16}"
+        )
+    print(
+        f"wrong associations {out['wrong_associations']} (false fixes with an MMSI "
+        f"{out['false_fixes_with_mmsi']}; against a pair-by-pair truth match: "
+        f"{out['per_pair_wrong']} wrong, {out['per_pair_dark_ais']} dark on an AIS ship); "
+        f"dark flag precision {_fmt(out['dark_precision'], '.1%')}, "
+        f"recall {_fmt(out['dark_recall'], '.1%')} (per T fix); AIS ships ever dark "
+        f"{out['ais_ships_flagged_dark']}"
+    )
     d, b = stage.estimates()
     inj = meta.get("ais_injected") or {}
     yaw = float(inj.get("right_yaw_deg", 0.0))
     injected_px = product.rect.f_px * math.radians(yaw)
     heading = float(inj.get("heading_deg", 0.0))
-    print(f"calibration check: disparity offset {_fmt(d.value, '+.4f')} px (sigma {_fmt(d.sigma, '.4f')}, "
-          f"{d.reports} reports, {d.ships} ships, fault {d.fault}); injected yaw {yaw:g} deg = "
-          f"{injected_px:.4f} px at f {product.rect.f_px:.0f} px")
-    print(f"                   bearing offset {_fmt(b.value, '+.4f')} deg (sigma {_fmt(b.sigma, '.4f')}, "
-          f"fault {b.fault}); injected heading error {heading:g} deg")
+    print(
+        f"calibration check: disparity offset {_fmt(d.value, '+.4f')} px (sigma {_fmt(d.sigma, '.4f')}, "
+        f"{d.reports} reports, {d.ships} ships, fault {d.fault}); injected yaw {yaw:g} deg = "
+        f"{injected_px:.4f} px at f {product.rect.f_px:.0f} px"
+    )
+    print(
+        f"                   bearing offset {_fmt(b.value, '+.4f')} deg (sigma {_fmt(b.sigma, '.4f')}, "
+        f"fault {b.fault}); injected heading error {heading:g} deg"
+    )
     print("AIS input: " + ", ".join(f"{k} {v}" for k, v in stage.counters.as_dict().items()))
-    out["monitor"] = {"disparity_px": d.value, "disparity_sigma_px": d.sigma, "disparity_fault": d.fault,
-                      "bearing_deg": b.value, "bearing_sigma_deg": b.sigma, "bearing_fault": b.fault,
-                      "reports": d.reports, "ships": d.ships, "injected_yaw_deg": yaw,
-                      "injected_disparity_px": injected_px, "injected_heading_deg": heading}
+    out["monitor"] = {
+        "disparity_px": d.value,
+        "disparity_sigma_px": d.sigma,
+        "disparity_fault": d.fault,
+        "bearing_deg": b.value,
+        "bearing_sigma_deg": b.sigma,
+        "bearing_fault": b.fault,
+        "reports": d.reports,
+        "ships": d.ships,
+        "injected_yaw_deg": yaw,
+        "injected_disparity_px": injected_px,
+        "injected_heading_deg": heading,
+    }
     return out
