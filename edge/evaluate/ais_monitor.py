@@ -175,7 +175,8 @@ def main(argv: list[str] | None = None) -> int:
         dm, ds, bm, bs, (de, be) = recording_residuals(args.recording)
         print(
             f"step 1, pipeline on {args.recording}: {len_or(de)} reports; "
-            f"disparity residual mean {dm:+.4f} px, RMS about it {ds:.4f} px; bearing mean {bm:+.4f} deg, RMS {bs:.4f} deg"
+            f"disparity residual mean {dm:+.4f} px, RMS about it {ds:.4f} px; "
+            f"bearing mean {bm:+.4f} deg, RMS {bs:.4f} deg"
         )
         print(
             f"        monitor there: disparity {de.value:+.4f} px (sigma {de.sigma:.4f}, fault {de.fault}), "
