@@ -120,6 +120,9 @@ class AisInputBase(abc.ABC):
             self._count("overlong")
         self._partial = rest
         for line in lines:
+            if len(line) > MAX_LINE_BYTES:
+                line = line[:MAX_LINE_BYTES]
+                self._count("overlong")
             if line:
                 self._put(t_ns, line)
 
