@@ -174,6 +174,17 @@ def sanitise_name(text: str, track_id: int) -> str:
     return " ".join(kept.split())[:NAME_CHARS].strip() or target_name(track_id)
 
 
+def _fitted(address: str, fields: list[str], name_at: int) -> str:
+    """`sentence`, with a long target name (an AIS name: up to 20 characters) cut just enough that
+    the line keeps within 82 characters; our own names are short enough never to be cut."""
+    body = len(address) + sum(len(f) + 1 for f in fields) + 6  # "$", "*hh", CR LF
+    over = body - MAX_SENTENCE_CHARS
+    if over > 0 and len(fields[name_at]) > NAME_CHARS:
+        fields = list(fields)
+        fields[name_at] = fields[name_at][:max(NAME_CHARS, len(fields[name_at]) - over)].rstrip() or "?"
+    return sentence(address, fields)
+
+
 def fix_name(fix: ShipFix, dark_prefix: str = DARK_PREFIX) -> str:
     """The target name a fix carries on NMEA (issue 17): its AIS name (sanitised, up to 20
     characters), else its MMSI (9 digits) when associated; a dark track the prefix before its
@@ -223,7 +234,7 @@ def ttm(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name:
         fmt_utc(fix.t_ns),
         "A",  # automatic acquisition
     ]
-    return sentence(check_talker(talker) + "TTM", fields)
+    return _fitted(check_talker(talker) + "TTM", fields, 10)
 
 
 def tll(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name: str | None = None,
@@ -242,7 +253,7 @@ def tll(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name:
         fix.status.value,
         "",  # reference target
     ]
-    return sentence(check_talker(talker) + "TLL", fields)
+    return _fitted(check_talker(talker) + "TLL", fields, 5)
 
 
 def east_north_m(fix: ShipFix) -> tuple[float, float]:
@@ -280,7 +291,7 @@ def txy(
         fmt_utc(fix.t_ns),
         fix.status.value,
     ]
-    return sentence("P" + check_manufacturer(manufacturer) + "TXY", fields)
+    return _fitted("P" + check_manufacturer(manufacturer) + "TXY", fields, 6)
 
 
 def track_sentences(

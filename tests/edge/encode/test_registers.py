@@ -226,3 +226,30 @@ def test_register_table_tool_prints_the_generated_table() -> None:
     out = subprocess.run([str(ROOT / "tools" / "register-table")], capture_output=True, text=True,
                          check=True, timeout=300)
     assert out.stdout == render_markdown_table()
+
+
+def test_ais_slot_flags_mmsi_block_and_health_registers() -> None:
+    """Map version 2 (issue 17): TARGET_FLAGS, one u32 MMSI per slot after the slots, and the AIS
+    monitor's values read from the `ais` health stage's counters (milli-units)."""
+    from edge.health import StageHealth
+
+    ais = StageHealth("ais", True, 0.1, None, {"disparity_offset_mpx": -87, "disparity_sigma_mpx": 12,
+                                               "bearing_offset_mdeg": 250, "bearing_sigma_mdeg": 40,
+                                               "monitor_ships": 3, "disparity_fault": 1, "lines": 70000,
+                                               "checksum_errors": 5, "malformed": 2, "unknown_type": 1})
+    health = HealthSnapshot(HEALTH.state, "", HEALTH.status_bits, 0, 29.97, 0.05, 100.0, (ais,))
+    snap = build_snapshot([fix(5, ais_mmsi=431000123), fix(6, dark=True), fix(7)], health, IDENT,
+                          SlotAssignment.empty(4), utc_ns=T0_NS)
+    regs = snap.registers
+    assert [read_field(regs, "TARGET_FLAGS", slot=k) for k in range(4)] == [1, 2, 0, 0]
+    assert read_field(regs, "MMSI", slot=0, max_tracks=4) == 431000123
+    assert read_field(regs, "MMSI", slot=1, max_tracks=4) is None  # 0xFFFFFFFF: none
+    assert address_of("MMSI", slot=0, max_tracks=4) == read_field(regs, "MMSI_BASE") == 180
+    assert address_of("MMSI", slot=0) == 740 and address_of("AIS_DISP_OFFSET") == 40
+    assert math.isclose(read_field(regs, "AIS_DISP_OFFSET"), -0.087)
+    assert math.isclose(read_field(regs, "AIS_BRG_OFFSET"), 0.25)
+    assert read_field(regs, "AIS_MONITOR_FAULTS") == 1 and read_field(regs, "AIS_MONITOR_SHIPS") == 3
+    assert read_field(regs, "AIS_LINES") == 70000 and read_field(regs, "AIS_MALFORMED") == 3
+    plain = build([fix(5)]).registers  # without an `ais` stage: "not available"
+    assert read_field(plain, "AIS_DISP_OFFSET") is None and read_field(plain, "AIS_LINES") is None
+    assert all(40 <= address_of(f.name) <= 59 for f in FIELDS if f.name.startswith("AIS_"))
