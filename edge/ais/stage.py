@@ -93,7 +93,7 @@ class AisStage:
             name = None if target is None else target.name
             out.append(dataclasses.replace(f, ais_mmsi=mmsi, ais_name=name, dark=a.dark))
             if mmsi is not None and self.cfg.monitor.enabled and mmsi in by_mmsi:
-                self._monitor(f, by_mmsi[a.mmsi])
+                self._monitor(f, by_mmsi[mmsi])
         self._log_fault()
         return out
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter, defaultdict
+from typing import Any
 
 import edge.evaluate.metrics as em
 from edge.ais.stage import AisStage
@@ -67,7 +68,7 @@ def ais_figures(fixes: dict[int, list[ShipFix]], ev: em.Evaluation, meta: dict) 
         fp += int(f.dark and not dark_truth)
         fn += int(dark_truth and not f.dark)
     false_with_mmsi = sum(1 for f in ev.false_fixes if f.ais_mmsi is not None)
-    ships = []
+    ships: list[dict[str, Any]] = []
     for sid, row in sorted(per_ship.items()):
         truth = mmsi_of.get(sid)
         delay = None

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from edge.ais.monitor import Estimate
 from edge.ais.stage import AisStage
 from edge.config.ais import AisConfig
 from edge.core.geo import range_bearing, world_to_latlon
@@ -36,7 +37,7 @@ from edge.sim.simulator import Simulation
 SCENARIO = "ais-monitor-2048"
 
 
-def recording_residuals(root: Path) -> tuple[float, float, float, float, object]:
+def recording_residuals(root: Path) -> tuple[float, float, float, float, tuple[Estimate, Estimate]]:
     """(disparity residual mean, RMS about it, bearing mean, RMS) of the monitor on a recording."""
     import edge.evaluate.report as er
 
@@ -119,6 +120,8 @@ def simulate(
             nxt += 1
         fixes = []
         for ship, spec in zip(sim.ships, scenario.spec.ships, strict=True):
+            if spec.ais is None:
+                continue
             x, z, h = antenna_world_xz(ship, spec.ais, step)
             if z <= 0 or abs(math.atan2(x, z)) > half_fov * 0.95:
                 continue

@@ -17,6 +17,7 @@ receive latency (a slot, ~27 ms) is left out. Deterministic for a seed.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from pyais import encode_dict
@@ -91,7 +92,7 @@ def ais_lines(scenario: Scenario, ships: list[Ship], duration_s: float,
             lat, lon, _ = world_to_latlon(np.array([x + noise[0], 0.0, z + noise[1]]), true_site)
             cog = (true_site.heading_deg + math.degrees(math.atan2(vx, vz))) % 360.0
             heading = round(true_site.heading_deg + math.degrees(h)) % 360
-            msg = {"type": 1 if ais.ais_class == "A" else 18, "mmsi": ais.mmsi, "speed": round(sog_kn, 1),
+            msg: dict[str, Any] = {"type": 1 if ais.ais_class == "A" else 18, "mmsi": ais.mmsi, "speed": round(sog_kn, 1),
                    "accuracy": int(ais.accurate), "lon": float(lon), "lat": float(lat),
                    "course": round(cog, 1) % 360.0, "heading": heading, "second": int(t) % 60}
             if ais.ais_class == "B":
@@ -104,6 +105,7 @@ def ais_lines(scenario: Scenario, ships: list[Ship], duration_s: float,
         while t < duration_s:
             a, b, c, d = (round(v) for v in antenna_m(ship, ais))
             dims = {"to_bow": a, "to_stern": b, "to_port": c, "to_starboard": d}
+            msgs: list[dict[str, Any]]
             if ais.ais_class == "A":
                 msgs = [{"type": 5, "mmsi": ais.mmsi, "shipname": ais.name, **dims}]
             else:
