@@ -92,9 +92,10 @@ def ais_lines(scenario: Scenario, ships: list[Ship], duration_s: float,
             lat, lon, _ = world_to_latlon(np.array([x + noise[0], 0.0, z + noise[1]]), true_site)
             cog = (true_site.heading_deg + math.degrees(math.atan2(vx, vz))) % 360.0
             heading = round(true_site.heading_deg + math.degrees(h)) % 360
-            msg: dict[str, Any] = {"type": 1 if ais.ais_class == "A" else 18, "mmsi": ais.mmsi, "speed": round(sog_kn, 1),
-                   "accuracy": int(ais.accurate), "lon": float(lon), "lat": float(lat),
-                   "course": round(cog, 1) % 360.0, "heading": heading, "second": int(t) % 60}
+            msg: dict[str, Any] = {
+                "type": 1 if ais.ais_class == "A" else 18, "mmsi": ais.mmsi, "speed": round(sog_kn, 1),
+                "accuracy": int(ais.accurate), "lon": float(lon), "lat": float(lat),
+                "course": round(cog, 1) % 360.0, "heading": heading, "second": int(t) % 60}
             if ais.ais_class == "B":
                 msg["cs"] = 1
             for line in encode_dict(msg, talker_id="AI", sentence_type="VDM", radio_channel="AB"[channel]):
