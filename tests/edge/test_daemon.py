@@ -118,7 +118,7 @@ def test_daemon_lifecycle_under_a_real_notify_socket(tmp_path: Path, notify: Not
         before = [m for _, m in notify.messages[:ready]]
         assert all(m.startswith(("EXTEND_TIMEOUT_USEC=", "WATCHDOG=1")) for m in before), before
         first = mbpoll(port)
-        assert first[0] == 1 and (first[4], first[5]) == (0x1234, 0x5678)  # map version, probe
+        assert first[0] == 2 and (first[4], first[5]) == (0x1234, 0x5678)  # map version (2: issue 17), probe
         assert first[27] >= 1  # UPDATE_COUNTER: the first pair was processed and published before READY
         assert first[17] & (1 << 3) and first[17] & (1 << 7)  # STATUS: CALIBRATION_VALID, SITE_SURVEYED
         lines: list[str] = []
