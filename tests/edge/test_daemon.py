@@ -169,13 +169,13 @@ def test_sighup_keeps_a_broken_config_out_and_applies_a_valid_one(tmp_path: Path
         assert proc.poll() is None
         assert not any(m.startswith("RELOADING=1") for _, m in notify.messages)
         assert any("reload refused" in m for _, m in notify.messages[ready:])  # in STATUS
-        assert mbpoll(port)[0] == 1  # still serving on the old configuration
+        assert mbpoll(port)[0] == 2  # (map version) still serving on the old configuration
         write_config(tmp_path, new_port)
         proc.send_signal(signal.SIGHUP)
         reloading = notify.wait_for("RELOADING=1", timeout_s=20.0)
         assert re.search(r"MONOTONIC_USEC=\d+", notify.messages[reloading][1])
         notify.wait_for("READY=1", timeout_s=20.0, after=reloading)
-        assert mbpoll(new_port)[0] == 1  # the new port serves
+        assert mbpoll(new_port)[0] == 2  # the new port serves (map version 2)
         proc.send_signal(signal.SIGTERM)
         _, stderr = proc.communicate(timeout=10)
         assert proc.returncode == 0 and "reload refused" in stderr and "not-a-port" in stderr, stderr

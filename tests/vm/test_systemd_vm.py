@@ -92,7 +92,7 @@ def test_the_daemon_runs_as_its_own_user(vm: dict) -> None:
 def test_mbpoll_reads_the_identity_block_on_port_502(vm: dict) -> None:
     regs = {int(k): v for k, v in vm["modbus"]["registers"].items()}
     assert regs, vm["modbus"]["last"]
-    assert regs[0] == 1 and (regs[4], regs[5]) == (0x1234, 0x5678) and (regs[7], regs[8]) == (100, 20)
+    assert regs[0] == 2 and (regs[4], regs[5]) == (0x1234, 0x5678) and (regs[7], regs[8]) == (100, 20)
 
 
 def test_security_exposure_is_at_most_2_5(vm: dict) -> None:
