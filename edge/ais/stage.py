@@ -58,6 +58,7 @@ class AisStage:
         self.input_start_ns: int | None = None
         self._used_reports: set[tuple[int, int]] = set()  # (mmsi, report t_ns) compared already
         self._fault_logged: str | None = None
+        self._dark_logged: set[int] = set()  # tracks whose turning dark was logged
 
     # ------------------------------------------------------------ input
     def start(self, t_ns: int) -> None:
@@ -80,6 +81,7 @@ class AisStage:
         t_fixes = [f for f in fixes if f.status is TrackStatus.TRACKING]
         tracks = [self._geometry(f, geometry) for f in t_fixes]
         live = {f.track_id for f in fixes}
+        self._dark_logged &= live
         result = self.associator.step(t_ns, tracks, targets, self.input_start_ns, live)
         by_mmsi = {p.mmsi: p for p in targets}
         out = []
@@ -92,6 +94,10 @@ class AisStage:
             target = self.table.targets.get(mmsi) if mmsi is not None else None
             name = None if target is None else target.name
             out.append(dataclasses.replace(f, ais_mmsi=mmsi, ais_name=name, dark=a.dark))
+            if a.dark and f.track_id not in self._dark_logged:  # the journal's event (issue 13 alerts on it)
+                self._dark_logged.add(f.track_id)
+                log.info("track %d is dark: no AIS association for %.0f s (range %.0f m, bearing %.1f deg)",
+                         f.track_id, self.cfg.dark_after_s, f.range_m, f.bearing_deg)
             if mmsi is not None and self.cfg.monitor.enabled and mmsi in by_mmsi:
                 self._monitor(f, by_mmsi[mmsi])
         self._log_fault()
