@@ -27,17 +27,29 @@ def _free_udp_port() -> int:
 def test_appliance_takes_ais_over_udp_as_its_own_health_stage(tmp_path: Path, recording) -> None:
     port = _free_udp_port()
     path = tmp_path / "appliance.yaml"
-    path.write_text(yaml.safe_dump({
-        "cameras": {"kind": "replay", "path": str(recording("akashi-crossing", 30)), "pace": True, "loop": True},
-        "outputs": {"modbus": {"tcp": {"enabled": False}}}, "health": {"min_fps": 0.0},
-        "ais": {"input": {"kind": "udp", "port": port, "host": "127.0.0.1"}}}))
+    path.write_text(
+        yaml.safe_dump(
+            {
+                "cameras": {
+                    "kind": "replay",
+                    "path": str(recording("akashi-crossing", 30)),
+                    "pace": True,
+                    "loop": True,
+                },
+                "outputs": {"modbus": {"tcp": {"enabled": False}}},
+                "health": {"min_fps": 0.0},
+                "ais": {"input": {"kind": "udp", "port": port, "host": "127.0.0.1"}},
+            }
+        )
+    )
     app = Appliance.build(load_config(path), path, VirtualNotifier())
     assert app.ais is not None
     stop = threading.Event()
     runner = threading.Thread(target=app.run, args=(stop,), daemon=True)
     runner.start()
-    line = encode_dict({"type": 1, "mmsi": 431000123, "lat": 34.6, "lon": 135.0}, talker_id="AI",
-                       sentence_type="VDM")[0]
+    line = encode_dict(
+        {"type": 1, "mmsi": 431000123, "lat": 34.6, "lon": 135.0}, talker_id="AI", sentence_type="VDM"
+    )[0]
     try:
         end = time.monotonic() + 30
         counters: dict[str, int] = {}
@@ -57,7 +69,9 @@ def test_appliance_takes_ais_over_udp_as_its_own_health_stage(tmp_path: Path, re
 def test_replay_feeds_the_recordings_ais_csv(recording) -> None:
     root = recording("harbour-mix", 45)  # 9 s at 5 fps: the coaster reports at 8.3 s
     lines = read_ais(root)
-    assert lines and all(s.startswith("!AIVDM") for _, s in lines) and lines == sorted(lines, key=lambda r: r[0])
+    assert (
+        lines and all(s.startswith("!AIVDM") for _, s in lines) and lines == sorted(lines, key=lambda r: r[0])
+    )
     summary = replay(root)
     assert summary.ais is not None
     c = summary.ais.counters
