@@ -87,7 +87,12 @@ class AisStage:
         out = []
         for f in fixes:
             a = result.get(f.track_id)
-            if a is None:
+            if a is None:  # Q or L: a lost track keeps the identity it had in its last sentences
+                held = self.associator.state.get(f.track_id)
+                if f.status is TrackStatus.LOST and held is not None and held.reported is not None:
+                    target = self.table.targets.get(held.reported)
+                    f = dataclasses.replace(f, ais_mmsi=held.reported,
+                                            ais_name=None if target is None else target.name)
                 out.append(f)
                 continue
             mmsi = a.mmsi if a.this_pair else None

@@ -5,6 +5,7 @@ input that never stops the tracking."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 
@@ -164,3 +165,13 @@ def test_garbage_on_the_input_never_stops_tracking() -> None:
         assert c.checksum_errors + c.malformed + c.incomplete > 5000
     finally:
         live.close()
+
+
+def test_a_lost_track_keeps_its_identity() -> None:
+    stage = AisStage(AisConfig(confirm_s=0.0), SITE, F_PX, B_M)
+    stage.start(0)
+    for line in ais_position(431000005, 0.0, 800.0):
+        stage.feed(0, line)
+    assert stage.annotate([fix(1, S, 0.0, 800.0)])[0].ais_mmsi == 431000005
+    lost = dataclasses.replace(fix(1, 2 * S, 0.0, 800.0), status=TrackStatus.LOST)
+    assert stage.annotate([lost])[0].ais_mmsi == 431000005
