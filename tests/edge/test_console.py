@@ -11,23 +11,8 @@ from edge.health import HealthMonitor, standard_stages
 
 
 def fix(track_id: int, range_m: float, sog: float | None) -> ShipFix:
-    return ShipFix(
-        0,
-        track_id,
-        TrackStatus.TRACKING,
-        0.0,
-        0.0,
-        range_m,
-        range_m,
-        123.4,
-        34.6,
-        135.0,
-        sog,
-        None,
-        12.3,
-        5.0,
-        age_s=7.25,
-    )
+    return ShipFix(0, track_id, TrackStatus.TRACKING, 0.0, 0.0, range_m, range_m, 123.4, 34.6, 135.0,
+                   sog, None, 12.3, 5.0, age_s=7.25)
 
 
 def test_rows_nearest_first_with_numbers_and_unknowns() -> None:
