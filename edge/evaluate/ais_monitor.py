@@ -207,6 +207,11 @@ def main(argv: list[str] | None = None) -> int:
                 f"{'-' if err is None else f'{err:+.0f}':>6} {str(d.fault):>5} {d.reports:>7} {d.ships:>5} "
                 f"{b.value:>+8.4f} {str(b.fault):>9}"
             )
+    for heading in (0.3, -0.1):  # a heading error: every bearing is off by -heading (AIS is on the true one)
+        (d, b), _ = simulate(args.minutes, 0.0, heading, sd, sb, 0)
+        print(f"heading error {heading:+g} deg: bearing offset {b.value:+.4f} deg (sigma {b.sigma:.4f}, "
+              f"expected {-heading:+g}), fault {b.fault}; disparity offset {d.value:+.4f} px, "
+              f"fault {d.fault}")
     print(
         f"acceptance (within 25 % and fault with drift, no fault without): {'PASS' if not bad else 'FAIL'} "
         f"({bad} runs failing)"
