@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TextIO
 
+from edge.encode.nmea import fix_name
 from edge.fix import ShipFix
 from edge.health import HealthSnapshot
 
@@ -31,7 +32,8 @@ def rows(fixes: Sequence[ShipFix], numbers: dict[int, int]) -> list[str]:
         number = f"{numbers[f.track_id]:>3}" if f.track_id in numbers else f"{'-':>3}"
         out.append(f"{number} {f.track_id:>4} {f.status.value:>2} {_cell(f.range_m, 8, 0)} "
                    f"{_cell(f.bearing_deg, 7, 1)} {_cell(f.sog_kn, 6, 1)} {_cell(f.cog_deg, 7, 1)} "
-                   f"{_cell(f.sigma_m, 7, 1)} {_cell(f.age_s, 6, 1)}")
+                   f"{_cell(f.sigma_m, 7, 1)} {_cell(f.age_s, 6, 1)}"
+                   + (f"  {fix_name(f)}" if f.ais_mmsi is not None or f.dark else ""))  # AIS name / DARK
     return out
 
 

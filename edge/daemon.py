@@ -44,6 +44,7 @@ from drivers.camera.base import FramePair, FramePairSource
 from drivers.clock import Clock, SystemClock
 from drivers.leds.base import LedPanel
 from drivers.notify import Notifier
+from edge.ais.live import LiveAis, ais_stage
 from edge.config.app import AppConfig, load_config
 from edge.config.trust import check_config_files
 from edge.errors import ConfigError
@@ -84,6 +85,8 @@ def _health(config: AppConfig, plan: SourcePlan, extra_nmea: bool, recording: bo
                              stall_after_s=config.health.stale_s)
     if recording:
         stages += (recording_stage(config.health.stale_s),)
+    if config.ais is not None:
+        stages += (ais_stage(config.health.stale_s),)
     health = HealthMonitor(stages, min_rate_hz=config.health.min_fps or None)
     health.set_flags(Status.CALIBRATION_VALID)  # the plan loaded and checked it
     health.set_flags(Status.SITE_SURVEYED, plan.calibration.site is not None)
@@ -118,6 +121,14 @@ class Appliance:
         self._step_lock = threading.Lock()  # held by one step + publish; a reload swaps between steps
         self._capture_thread: threading.Thread | None = None
         self._capture_stop = threading.Event()
+        self.ais: LiveAis | None = self._ais(config, pipeline)
+
+    @staticmethod
+    def _ais(config: AppConfig, pipeline: Pipeline) -> LiveAis | None:
+        """The AIS input and association (config `ais:`); nothing is opened here."""
+        if config.ais is None:
+            return None
+        return LiveAis(config.ais, pipeline.site, pipeline.rect.f_px, pipeline.rig.baseline_m)
 
     @classmethod
     def build(cls, config: AppConfig, config_file: str | Path | None, notifier: Notifier,
@@ -146,7 +157,8 @@ class Appliance:
         assert site is not None  # build() refuses a plan without a site
         outputs = Outputs.from_config(config.outputs, health, max_tracks=config.pipeline.max_tracks,
                                       site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg,
-                                      alerts=config.alerts)
+                                      alerts=config.alerts,
+                                      dark_prefix="DARK" if config.ais is None else config.ais.dark_prefix)
         for stream in extra_nmea:
             outputs.add(stream)
         return outputs
@@ -206,6 +218,8 @@ class Appliance:
         elif pair.realtime_offset_ns is not None:  # UTC of a live pair: the wall clock at its exposure
             self.pipeline.utc_offset_ns = pair.realtime_offset_ns
         fixes = self.pipeline.step(pair)
+        if self.ais is not None:  # AIS names, MMSI and the dark flag (issue 17); never raises
+            fixes = self.ais.step(fixes, self.pipeline.ground.position, self.health)
         self.live_fixes, self.last_fixes = len(fixes), fixes
         latency_s = (time.monotonic_ns() - captured_ns) / 1e9  # capture to outputs
         self.health.beat("processing", frames=1, latency_s=latency_s,
@@ -244,6 +258,8 @@ class Appliance:
         if self.persistence is not None:
             self.persistence.restore(self.pipeline, self.outputs)
         self.outputs.start()
+        if self.ais is not None:
+            self.ais.start(time.time_ns())
         self._start_capture()
         processing = threading.Thread(target=self._process, args=(stop,), name="processing", daemon=True)
         processing.start()
@@ -275,6 +291,8 @@ class Appliance:
             processing.join(timeout=JOIN_S)
             self._send_lost()
             self.outputs.close()
+            if self.ais is not None:
+                self.ais.close()
             if self.recorder is not None:
                 self.recorder.close()
             if self.persistence is not None:
@@ -348,9 +366,10 @@ class Appliance:
             config = load_config(self.config_file)
             plan = _plan(config, self.config_file)
             health = _health(config, plan, bool(self.extra_nmea), recording=self.recorder is not None)
-            outputs = self._outputs(config, plan, health, self.extra_nmea) \
-                if (config.outputs, config.health, config.alerts) != \
-                (self.config.outputs, self.config.health, self.config.alerts) else None
+            # ais: its health stage and the DARK prefix; alerts: the ports' alert sentences
+            changed = (config.outputs, config.health, config.ais, config.alerts) != \
+                (self.config.outputs, self.config.health, self.config.ais, self.config.alerts)
+            outputs = self._outputs(config, plan, health, self.extra_nmea) if changed else None
         except ConfigError as exc:
             self.reload_error = str(exc)
             log.error("reload refused, running on the previous configuration: %s", exc,
@@ -365,6 +384,12 @@ class Appliance:
             if cameras_changed or (old.calibration, old.site, old.pipeline) != \
                     (config.calibration, config.site, config.pipeline):
                 self.pipeline, self.steps, self.last_fixes = self._pipeline(config, plan), 0, []
+            if config.ais != old.ais:
+                if self.ais is not None:
+                    self.ais.close()
+                self.ais = self._ais(config, self.pipeline)
+                if self.ais is not None:
+                    self.ais.start(time.time_ns())
             if outputs is not None:
                 self.outputs.close()
                 self.outputs, self.health = outputs, health

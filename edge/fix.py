@@ -42,6 +42,8 @@ class ShipFix:
     length_m: float | None = None  # apparent ship length estimate
     sog_sigma_kn: float | None = None  # 1-sigma of sog_kn (None with it)
     cog_sigma_deg: float | None = None  # 1-sigma of cog_deg (None with it)
+    ais_mmsi: int | None = None  # MMSI of the AIS target this track is associated with (issue 17)
+    ais_name: str | None = None  # that target's name from AIS static data, when known
     dark: bool = False  # no AIS association for ais.dark_after_s (issue 17)
     # the ground-plane filter's state once its speed is known (SOG shown), for CPA/TCPA (issue 18):
     en_state: tuple[float, float, float, float] | None = None  # east m, north m, v east m/s, v north m/s

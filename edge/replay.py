@@ -28,8 +28,10 @@ from pathlib import Path
 from typing import TextIO
 
 from drivers.camera.replay import RecordingFormatError, ReplaySource
+from edge.ais.stage import AisStage, feed_until
 from edge.alerts.manager import AlertManager
 from edge.alerts.port import PortAlerts
+from edge.config.ais import AisConfig
 from edge.config.app import AppConfig, PipelineConfig, load_config
 from edge.config.calibration import Calibration, recording_calibration
 from edge.encode.tracks_csv import CSV_HEADER, csv_row
@@ -37,6 +39,7 @@ from edge.errors import ConfigError
 from edge.fix import ShipFix
 from edge.outputs.schedule import NmeaSchedule, NmeaScheduler
 from edge.pipeline import Counters, Pipeline
+from edge.sim.recording import read_ais
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +55,7 @@ class ReplaySummary:
     tracks: int = 0  # distinct track ids that produced fixes
     nmea_lines: int = 0
     csv_rows: int = 0
+    ais: AisStage | None = None  # the AIS stage, when the recording has an ais.csv
 
     def lines(self) -> list[str]:
         p = self.pipeline
@@ -63,7 +67,8 @@ class ReplaySummary:
             f"coasted gaps {p.gaps}, detection passes {p.detections}",
             f"fixes {p.fixes} from {self.tracks} tracks; NMEA lines {self.nmea_lines}, "
             f"CSV rows {self.csv_rows}",
-        ]
+        ] + ([] if self.ais is None else [
+            "AIS: " + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in self.ais.health_counters().items())])
 
 
 def open_recording(root: str | Path) -> ReplaySource:
@@ -90,6 +95,22 @@ def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | N
     return Pipeline(cal, pipeline_cfg, fps=float(fps))
 
 
+def build_ais(root: str | Path, pipeline: Pipeline, config: AppConfig | None) -> tuple[AisStage, list] | None:
+    """The AIS stage and the recording's ais.csv lines, or None when it has none (config.ais, else
+    the defaults)."""
+    try:
+        lines = read_ais(root)
+    except ValueError as exc:
+        raise ConfigError(Path(root) / "ais.csv", "header", "t_ns,sentence", str(exc)) from None
+    if lines is None:
+        return None
+    cfg = (config.ais if config is not None else None) or AisConfig()
+    stage = AisStage(cfg, pipeline.site, pipeline.rect.f_px, pipeline.rig.baseline_m)
+    if lines:
+        stage.start(min(lines[0][0], 0))
+    return stage, lines
+
+
 def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: TextIO | None = None,
            tracks: TextIO | None = None, on_fixes: Callable[[int, list[ShipFix]], None] | None = None
            ) -> ReplaySummary:
@@ -98,6 +119,10 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
     source = open_recording(root)
     pipeline = build_pipeline(root, source, config)
     summary = ReplaySummary(pairs_in_recording=len(source), pipeline=pipeline.counters)
+    ais = build_ais(root, pipeline, config)
+    ais_next = 0
+    if ais is not None:
+        summary.ais = ais[0]
     now = [0.0]
     scheduler = NmeaScheduler(NmeaSchedule(), None, clock=lambda: now[0])
     manager = None
@@ -110,6 +135,10 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
     with source:
         for pair in source:
             fixes = pipeline.step(pair)
+            if ais is not None:  # the lines received up to this exposure, then the association
+                stage, lines = ais
+                ais_next = feed_until(stage, lines, ais_next, pair.t_ns)
+                fixes = stage.annotate(fixes, pipeline.ground.position)
             now[0] = pair.t_ns / 1e9
             if manager is not None:
                 manager.step(fixes, pair.t_ns)

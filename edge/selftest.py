@@ -9,7 +9,8 @@ Checks: the configuration and the calibration load; the daemon's state if it run
 deliver pairs (at the configured rate and skew for real cameras); a known-answer test of the
 core on a rendered pair (range within 1 % of truth); each serial port opens; the Modbus port
 binds (or the daemon answers on it); the LEDs cycle; free disk for recordings; the system
-clock is synchronised (NMEA carries UTC).
+clock is synchronised (NMEA carries UTC); with an `ais:` block, the running daemon's AIS
+calibration check (disparity and bearing offsets, their sigmas, ships behind them: Modbus 40-45).
 """
 
 from __future__ import annotations
@@ -81,6 +82,26 @@ def read_health_block(host: str, port: int, timeout_s: float = 1.0) -> DaemonSta
     return DaemonState(status, fault, heartbeat)
 
 
+def read_input_registers(host: str, port: int, start: int, count: int,
+                         timeout_s: float = 1.0) -> tuple[int, ...] | None:
+    """FC4 read of `count` registers from `start` with a plain Modbus TCP frame (None: no answer)."""
+    request = struct.pack(">HHHBBHH", 2, 0, 6, 1, 4, start, count)
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s) as sock:
+            sock.sendall(request)
+            reply = b""
+            while len(reply) < 9 + 2 * count:
+                chunk = sock.recv(512)
+                if not chunk:
+                    break
+                reply += chunk
+    except OSError:
+        return None
+    if len(reply) < 9 + 2 * count or reply[7] != 4:
+        return None
+    return struct.unpack(f">{count}H", reply[9:9 + 2 * count])
+
+
 class Selftest:
     """Runs the checks for one configuration file."""
 
@@ -100,7 +121,7 @@ class Selftest:
         checks.append(self.check_daemon())
         steps: list[Callable[[], Check | list[Check]]] = [
             self.check_cameras, self.check_core, self.check_serial_ports, self.check_modbus,
-            self.check_leds, self.check_disk, self.check_clock]
+            self.check_leds, self.check_disk, self.check_clock, self.check_ais]
         for step in steps:
             got = step()
             checks.extend(got if isinstance(got, list) else [got])
@@ -285,6 +306,25 @@ class Selftest:
             return Check("disk", FAIL, detail, "free space for recordings: remove old recordings")
         return Check("disk", PASS, detail)
 
+    def check_ais(self) -> Check:
+        """The AIS calibration check of the running daemon (issue 17), from its Modbus health block."""
+        assert self.config is not None
+        if self.config.ais is None:
+            return Check("ais calibration check", SKIP, "no ais: block in the configuration")
+        tcp = self.config.outputs.modbus.tcp
+        if self.daemon is None or not tcp.enabled:
+            return Check("ais calibration check", SKIP, "the daemon is not running: nothing measured yet")
+        host = "127.0.0.1" if tcp.host in ("0.0.0.0", "") else tcp.host
+        regs = read_input_registers(host, tcp.port, 40, 6)
+        got = None if regs is None else _ais_monitor_text(regs)
+        if got is None:
+            return Check("ais calibration check", SKIP, "no estimate yet (needs associated class-A ships)")
+        text, fault = got
+        if fault:
+            return Check("ais calibration check", FAIL, text,
+                         "a camera moved or the heading is off: re-check the mount, recalibrate")
+        return Check("ais calibration check", PASS, text)
+
     def check_clock(self) -> Check:
         assert self.config is not None
         if self.clock.synchronised():
@@ -293,6 +333,23 @@ class Selftest:
             return Check("clock", SKIP, "not synchronised; not required (health.require_clock_sync: false)")
         return Check("clock", FAIL, "not synchronised: NMEA and Modbus times may be off",
                      "enable chrony or systemd-timesyncd, or a GPS/PPS source; `timedatectl`")
+
+
+def _ais_monitor_text(regs: tuple[int, ...]) -> tuple[str, bool] | None:
+    """Registers 40-45 -> (text, fault) or None when the daemon has no estimate yet."""
+    from edge.encode.registers import BY_NAME, WordOrder, decode
+
+    def value(name: str) -> float | None:
+        return decode(BY_NAME[name], regs[BY_NAME[name].offset - 24:][:1], WordOrder.HIGH_FIRST)
+
+    names = ("AIS_DISP_OFFSET", "AIS_DISP_SIGMA", "AIS_BRG_OFFSET", "AIS_BRG_SIGMA")
+    d, ds, b, bs = (value(n) for n in names)
+    ships, faults = value("AIS_MONITOR_SHIPS"), value("AIS_MONITOR_FAULTS")
+    if d is None or ds is None or b is None or bs is None:
+        return None
+    text = (f"disparity offset {d:+.3f} px (sigma {ds:.3f}), bearing offset {b:+.3f} deg (sigma {bs:.3f}), "
+            f"{int(ships or 0)} ships")
+    return text, bool(faults)
 
 
 def report(checks: list[Check]) -> str:

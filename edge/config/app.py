@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from edge.alerts.config import AlertsConfig
+from edge.config.ais import AisConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
@@ -288,6 +289,7 @@ class AppConfig:
     health: HealthConfig = setting(default_factory=HealthConfig)
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
     alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # issue 18 (edge/alerts/config.py)
+    ais: AisConfig | None = setting(None, doc="AIS input and association (issue 17); null: off")
 
     @property
     def effective_site(self) -> Site | None:

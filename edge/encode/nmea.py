@@ -38,6 +38,8 @@ RESERVED_CHARS = frozenset("$*,!\\^~")
 METRES_PER_NM = 1852.0
 MPS_PER_KNOT = METRES_PER_NM / 3600.0
 NAME_CHARS = 8  # Furuno IPS shows 8 characters of the target name
+AIS_NAME_CHARS = 20  # an AIS name has 20 characters (ITU-R M.1371 type 5); a TTM/TXY with it stays <= 82
+DARK_PREFIX = "DARK"  # name prefix of a T track with no AIS association (ais.dark_prefix)
 KINDS = ("TTM", "TLL", "TXY")  # sentence kinds a port may choose, in sending order
 UDPBC = b"UdPbC\x00"  # IEC 61162-450 token for sentence datagrams
 
@@ -172,8 +174,36 @@ def sanitise_name(text: str, track_id: int) -> str:
     return " ".join(kept.split())[:NAME_CHARS].strip() or target_name(track_id)
 
 
-def _name(fix: ShipFix, name: str | None) -> str:
-    return target_name(fix.track_id) if name is None else sanitise_name(name, fix.track_id)
+def _fitted(address: str, fields: list[str], name_at: int) -> str:
+    """`sentence`, with a long target name (an AIS name: up to 20 characters) cut just enough that
+    the line keeps within 82 characters; our own names are short enough never to be cut."""
+    body = len(address) + sum(len(f) + 1 for f in fields) + 6  # "$", "*hh", CR LF
+    over = body - MAX_SENTENCE_CHARS
+    if over > 0 and len(fields[name_at]) > NAME_CHARS:
+        fields = list(fields)
+        fields[name_at] = fields[name_at][:max(NAME_CHARS, len(fields[name_at]) - over)].rstrip() or "?"
+    return sentence(address, fields)
+
+
+def fix_name(fix: ShipFix, dark_prefix: str = DARK_PREFIX) -> str:
+    """The target name a fix carries on NMEA (issue 17): its AIS name (sanitised, up to 20
+    characters), else its MMSI (9 digits) when associated; a dark track the prefix before its
+    ``TRK`` name (``DARK123``, cut to 20 characters); otherwise ``TRK`` + the track id."""
+    if fix.ais_mmsi is not None:
+        if fix.ais_name:
+            kept = "".join(c for c in fix.ais_name if " " <= c <= "~" and c not in RESERVED_CHARS)
+            name = " ".join(kept.split())[:AIS_NAME_CHARS].strip()
+            if name:
+                return name
+        return str(fix.ais_mmsi)[:AIS_NAME_CHARS]
+    if fix.dark and dark_prefix:
+        prefix = "".join(c for c in dark_prefix if c.isalnum() and c.isascii())[:6]
+        return (prefix + str(fix.track_id))[:AIS_NAME_CHARS]
+    return target_name(fix.track_id)
+
+
+def _name(fix: ShipFix, name: str | None, dark_prefix: str = DARK_PREFIX) -> str:
+    return fix_name(fix, dark_prefix) if name is None else sanitise_name(name, fix.track_id)
 
 
 def fmt_target_number(number: int, digits: int = 2) -> str:
@@ -183,7 +213,8 @@ def fmt_target_number(number: int, digits: int = 2) -> str:
     return f"{number:0{digits}d}"
 
 
-def ttm(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name: str | None = None) -> str:
+def ttm(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name: str | None = None,
+        dark_prefix: str = DARK_PREFIX) -> str:
     """TTM (tracked target message), polar from the site; CPA and TCPA empty."""
     live = fix.status is not TrackStatus.LOST
     fields = [
@@ -197,16 +228,17 @@ def ttm(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name:
         "",  # distance of CPA: meaningless for a fixed station
         "",  # time to CPA
         "N",
-        _name(fix, name),
+        _name(fix, name, dark_prefix),
         fix.status.value,
         "",  # reference target: never
         fmt_utc(fix.t_ns),
         "A",  # automatic acquisition
     ]
-    return sentence(check_talker(talker) + "TTM", fields)
+    return _fitted(check_talker(talker) + "TTM", fields, 10)
 
 
-def tll(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name: str | None = None) -> str:
+def tll(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name: str | None = None,
+        dark_prefix: str = DARK_PREFIX) -> str:
     """TLL (target latitude and longitude)."""
     lat, lat_hemisphere = fmt_lat(fix.lat_deg)
     lon, lon_hemisphere = fmt_lon(fix.lon_deg)
@@ -216,12 +248,12 @@ def tll(fix: ShipFix, number: int, *, talker: str = "RA", digits: int = 2, name:
         lat_hemisphere,
         lon,
         lon_hemisphere,
-        _name(fix, name),
+        _name(fix, name, dark_prefix),
         fmt_utc(fix.t_ns),
         fix.status.value,
         "",  # reference target
     ]
-    return sentence(check_talker(talker) + "TLL", fields)
+    return _fitted(check_talker(talker) + "TLL", fields, 5)
 
 
 def east_north_m(fix: ShipFix) -> tuple[float, float]:
@@ -231,7 +263,8 @@ def east_north_m(fix: ShipFix) -> tuple[float, float]:
 
 
 def txy(
-    fix: ShipFix, number: int, *, manufacturer: str = "XXX", digits: int = 2, name: str | None = None
+    fix: ShipFix, number: int, *, manufacturer: str = "XXX", digits: int = 2, name: str | None = None,
+    dark_prefix: str = DARK_PREFIX,
 ) -> str:
     """Proprietary ``$P<mfr>TXY``: x east, y north (m), vx, vy (m/s), 1-sigma (m), name, UTC, status.
 
@@ -254,11 +287,11 @@ def txy(
         fmt_number(vx_mps, 2),
         fmt_number(vy_mps, 2),
         fmt_number(fix.sigma_m, 1),
-        _name(fix, name),
+        _name(fix, name, dark_prefix),
         fmt_utc(fix.t_ns),
         fix.status.value,
     ]
-    return sentence("P" + check_manufacturer(manufacturer) + "TXY", fields)
+    return _fitted("P" + check_manufacturer(manufacturer) + "TXY", fields, 6)
 
 
 def track_sentences(
@@ -269,6 +302,7 @@ def track_sentences(
     talker: str = "RA",
     manufacturer: str = "XXX",
     digits: int = 2,
+    dark_prefix: str = DARK_PREFIX,
 ) -> list[str]:
     """The sentences of one track update, in the order TTM, TLL, TXY (those in `kinds`)."""
     wanted = set(kinds)
@@ -277,11 +311,11 @@ def track_sentences(
         raise NmeaError(f"unknown sentence kinds {sorted(unknown)}; choose from {KINDS}")
     out = []
     if "TTM" in wanted:
-        out.append(ttm(fix, number, talker=talker, digits=digits))
+        out.append(ttm(fix, number, talker=talker, digits=digits, dark_prefix=dark_prefix))
     if "TLL" in wanted:
-        out.append(tll(fix, number, talker=talker, digits=digits))
+        out.append(tll(fix, number, talker=talker, digits=digits, dark_prefix=dark_prefix))
     if "TXY" in wanted:
-        out.append(txy(fix, number, manufacturer=manufacturer, digits=digits))
+        out.append(txy(fix, number, manufacturer=manufacturer, digits=digits, dark_prefix=dark_prefix))
     return out
 
 

@@ -9,7 +9,11 @@ driver publishes atomically, (b) `read_field()` for clients and tests, and
 (`tools/register-table`; a test fails if the README drifts from it).
 
 Layout: identity block at 0, health block at 16, track slots of fixed stride
-from 100 (slot k at 100 + 20k). Scaled integers: stored = round(value / scale),
+from 100 (slot k at 100 + 20k), then (map version 2, issue 17) one u32 MMSI per slot from
+MMSI_BASE = 100 + 20N (740 with the default 32 slots). The AIS calibration monitor and input
+counters sit in the health block at 40-55; they are read from the `ais` health stage's counters
+(milli-units there, so the registers carry them unchanged) and are "not available" without it.
+Scaled integers: stored = round(value / scale),
 saturated just short of the sentinel (angles and counters wrap instead).
 32-bit values use the configured word order (default high word first); the
 PROBE register reads 0x12345678 in that order. A slot keeps its row while its
@@ -28,19 +32,23 @@ from edge.encode.alert_rows import AlertImage, alert_values
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthSnapshot, Status
 
-MAP_VERSION = 2  # 2: the alert header and block (issue 18), the AIS fields (issue 17)
+MAP_VERSION = 2  # 2: TARGET_FLAGS, the MMSI block, the AIS health registers (issue 17); the alerts (issue 18)
 PROBE_VALUE = 0x12345678
 TRACK_BASE = 100
 TRACK_STRIDE = 20
 DEFAULT_MAX_TRACKS = 32
+MMSI_STRIDE = 2  # one u32 per slot
 ALERT_BLOCK = 900  # issue 18: the alert block (present with alerts.enabled), slots from ALERT_SLOT_BASE
 ALERT_SLOT_BASE = 910
 ALERT_STRIDE = 16
 ALERT_SLOTS = 16
 MAX_TRACKS_WITH_ALERTS = 36  # track slots and the AIS MMSI block (2 per slot after them) end below 900
 BLOCKS = {"identity": (0, 16), "health": (16, TRACK_BASE - 16), "track": (TRACK_BASE, TRACK_STRIDE),
+          "mmsi": (TRACK_BASE + TRACK_STRIDE * DEFAULT_MAX_TRACKS, MMSI_STRIDE),  # mmsi: base for N = 32
           "alert": (ALERT_BLOCK, ALERT_SLOT_BASE - ALERT_BLOCK),
           "alert_slot": (ALERT_SLOT_BASE, ALERT_STRIDE)}
+TARGET_FLAG_AIS, TARGET_FLAG_DARK = 1 << 0, 1 << 1
+AIS_FAULT_DISPARITY, AIS_FAULT_BEARING = 1 << 0, 1 << 1
 TYPES = {"u16": (1, False), "i16": (1, True), "u32": (2, False), "i32": (2, True)}  # words, signed
 NA_U16, NA_I16, NA_U32, NA_I32 = 0xFFFF, 0x8000, 0xFFFFFFFF, 0x7FFFFFFF
 SLOT_STATUS = {None: 0, TrackStatus.ACQUIRING: 1, TrackStatus.TRACKING: 2, TrackStatus.LOST: 3}
@@ -55,7 +63,7 @@ class WordOrder(enum.IntEnum):
 @dataclass(frozen=True, slots=True)
 class Field:
     name: str
-    block: str  # identity | health | track
+    block: str  # identity | health | track | mmsi
     offset: int  # from the block start (track: from the slot start)
     type: str  # u16 | i16 | u32 | i32
     scale: float  # physical units per count
@@ -86,6 +94,9 @@ FIELDS: tuple[Field, ...] = (
        f"Registers per slot (= {TRACK_STRIDE})"),
     _f("WORD_ORDER", "identity", 9, "u16", 1, "", None,
        "32-bit word order: 0 = high word first (ABCD), 1 = low word first (CDAB)"),
+    _f("MMSI_BASE", "identity", 10, "u16", 1, "", None,
+       "Address of the MMSI block (= TRACK_BASE + TRACK_STRIDE x MAX_TRACKS; "
+       f"{TRACK_BASE + TRACK_STRIDE * DEFAULT_MAX_TRACKS} by default)"),
     _f("HEARTBEAT", "health", 0, "u16", 1, "s", None,
        "+1 per second of uptime, wraps; stops when publishing stops (PLC watchdog)", 1 << 16),
     _f("STATUS", "health", 1, "u16", 1, "bits", None, "Status bits, see below"),
@@ -103,6 +114,28 @@ FIELDS: tuple[Field, ...] = (
     _f("SITE_LAT", "health", 14, "i32", 1e-7, "deg", NA_I32,
        "Latitude of the site (baseline midpoint), WGS-84, north positive"),
     _f("SITE_LON", "health", 16, "i32", 1e-7, "deg", NA_I32, "Longitude of the site, east positive"),
+    _f("AIS_DISP_OFFSET", "health", 24, "i16", 0.001, "px", NA_I16,
+       "AIS calibration check: disparity offset (measured - expected; right-camera yaw drift)"),
+    _f("AIS_DISP_SIGMA", "health", 25, "u16", 0.001, "px", NA_U16, "1-sigma of AIS_DISP_OFFSET"),
+    _f("AIS_BRG_OFFSET", "health", 26, "i16", 0.001, "deg", NA_I16,
+       "AIS calibration check: bearing offset (measured - expected; heading error)"),
+    _f("AIS_BRG_SIGMA", "health", 27, "u16", 0.001, "deg", NA_U16, "1-sigma of AIS_BRG_OFFSET"),
+    _f("AIS_MONITOR_SHIPS", "health", 28, "u16", 1, "", NA_U16, "Class-A ships behind the estimates"),
+    _f("AIS_MONITOR_FAULTS", "health", 29, "u16", 1, "bits", NA_U16,
+       "Bit 0 disparity offset beyond its bound with confidence, bit 1 bearing offset"),
+    _f("AIS_TARGETS", "health", 30, "u16", 1, "", NA_U16, "AIS targets with a recent position report"),
+    _f("AIS_LINES", "health", 32, "u32", 1, "", NA_U32, "AIS lines received, wraps", 1 << 32),
+    _f("AIS_DECODED", "health", 34, "u32", 1, "", NA_U32, "AIS messages decoded and used, wraps", 1 << 32),
+    _f("AIS_CHECKSUM_ERRORS", "health", 36, "u16", 1, "", NA_U16, "AIS lines with a bad checksum, wraps",
+       1 << 16),
+    _f("AIS_MALFORMED", "health", 37, "u16", 1, "", NA_U16,
+       "AIS lines malformed or of an unknown message type, wraps", 1 << 16),
+    _f("AIS_INCOMPLETE", "health", 38, "u16", 1, "", NA_U16,
+       "Multi-part AIS messages dropped with fragments missing, wraps", 1 << 16),
+    _f("AIS_TOO_OLD", "health", 39, "u16", 1, "", NA_U16, "AIS position reports dropped for age, wraps",
+       1 << 16),
+    _f("AIS_INPUT_ERRORS", "health", 40, "u16", 1, "", NA_U16,
+       "AIS input faults: failed opens/reads and lines lost to a full queue, wraps", 1 << 16),
     _f("SLOT_STATUS", "track", 0, "u16", 1, "", None,
        "0 empty, 1 acquiring (Q), 2 tracking (T), 3 lost (L, while held)"),
     _f("TARGET_NUMBER", "track", 1, "u16", 1, "", NA_U16, "NMEA TTM/TLL target number"),
@@ -119,9 +152,13 @@ FIELDS: tuple[Field, ...] = (
     _f("SIGMA", "track", 15, "u16", 0.1, "m", NA_U16, "1-sigma range error"),
     _f("CONFIDENCE", "track", 16, "u16", 1, "%", NA_U16,
        "Share of the last 10 s of pairs in which the track was measured, not coasted"),
+    _f("TARGET_FLAGS", "track", 17, "u16", 1, "bits", None,
+       "Bit 0 AIS associated (MMSI in the MMSI block), bit 1 DARK (tracking, no AIS for ais.dark_after_s)"),
     _f("LENGTH", "track", 18, "u16", 1, "m", NA_U16, "Apparent ship length estimate"),
     _f("SEQ", "track", 19, "u16", 1, "", None,
        "UPDATE_COUNTER of the snapshot this slot was written in", 1 << 16),
+    _f("MMSI", "mmsi", 0, "u32", 1, "", NA_U32,
+       "MMSI of slot k's associated AIS target, at MMSI_BASE + 2k (0xFFFFFFFF: none)"),
 )
 FIELDS += (  # issue 18: alerts (edge.alerts); all 0 / "not available" with alerts off
     _f("ALERTS_ACTIVE", "health", 44, "u16", 1, "", None, "Active alerts (address 60)"),
@@ -176,17 +213,21 @@ class Identity:
     alert_slots: int = 0  # issue 18: ALERT_SLOTS with alerts.enabled, else 0 (no alert block)
 
     def __post_init__(self) -> None:
-        if not 1 <= self.max_tracks <= (0x10000 - TRACK_BASE) // TRACK_STRIDE:
+        if not 1 <= self.max_tracks <= (0x10000 - TRACK_BASE) // (TRACK_STRIDE + MMSI_STRIDE):
             raise ValueError(f"max_tracks {self.max_tracks} does not fit the 16-bit address space")
         if self.alert_slots and self.max_tracks > MAX_TRACKS_WITH_ALERTS:
             raise ValueError(f"with the alert block at {ALERT_BLOCK} max_tracks must be "
                              f"<= {MAX_TRACKS_WITH_ALERTS}")
 
     @property
+    def mmsi_base(self) -> int:
+        return TRACK_BASE + TRACK_STRIDE * self.max_tracks
+
+    @property
     def size(self) -> int:
         if self.alert_slots:
             return ALERT_SLOT_BASE + ALERT_STRIDE * self.alert_slots
-        return TRACK_BASE + TRACK_STRIDE * self.max_tracks
+        return self.mmsi_base + MMSI_STRIDE * self.max_tracks
 
 
 @dataclass(frozen=True, slots=True)
@@ -208,8 +249,9 @@ class RegisterSnapshot:
     unslotted: tuple[int, ...]  # track ids that found no free slot
 
 
-def address_of(name: str, slot: int | None = None) -> int:
-    """0-based register address of a field (track fields need `slot`)."""
+def address_of(name: str, slot: int | None = None, max_tracks: int | None = None) -> int:
+    """0-based register address of a field (track and MMSI fields need `slot`; the MMSI block's
+    place depends on the number of slots, default 32)."""
     f = BY_NAME[name]
     if f.block == "track":
         if slot is None or slot < 0:
@@ -219,6 +261,10 @@ def address_of(name: str, slot: int | None = None) -> int:
         if slot is None or slot < 0:
             raise ValueError(f"{name} is an alert-slot field: give slot >= 0")
         return ALERT_SLOT_BASE + ALERT_STRIDE * slot + f.offset
+    if f.block == "mmsi":
+        if slot is None or slot < 0:
+            raise ValueError(f"{name} is a per-slot field: give slot >= 0")
+        return (max_tracks or DEFAULT_MAX_TRACKS) * TRACK_STRIDE + TRACK_BASE + MMSI_STRIDE * slot
     return BLOCKS[f.block][0] + f.offset
 
 
@@ -264,9 +310,9 @@ def decode(f: Field, words: Sequence[int], word_order: WordOrder) -> float | Non
 
 
 def read_field(registers: Sequence[int], name: str, *, slot: int | None = None,
-               word_order: WordOrder = WordOrder.HIGH_FIRST) -> float | None:
+               word_order: WordOrder = WordOrder.HIGH_FIRST, max_tracks: int | None = None) -> float | None:
     f = BY_NAME[name]
-    at = address_of(name, slot)
+    at = address_of(name, slot, max_tracks)
     return decode(f, registers[at:at + f.words], word_order)
 
 
@@ -326,6 +372,7 @@ def build_snapshot(fixes: Sequence[ShipFix], health: HealthSnapshot, identity: I
     for k, tid in enumerate(slots):
         fx = by_id.get(tid) if tid is not None else None
         write(TRACK_BASE + TRACK_STRIDE * k, "track", _slot_values(fx, numbers, utc_ns, counter))
+        write(identity.mmsi_base + MMSI_STRIDE * k, "mmsi", {"MMSI": None if fx is None else fx.ais_mmsi})
     if alerts is not None:  # issue 18: the header's alert fields, and the block when it exists
         header = alerts.header(ALERT_BLOCK if identity.alert_slots else 0)
         for f in BLOCK_FIELDS["health"][-5:]:
@@ -346,7 +393,8 @@ def _identity_values(identity: Identity) -> dict[str, float | None]:
     major, minor, patch = identity.firmware_version
     return {"MAP_VERSION": MAP_VERSION, "FW_MAJOR": major, "FW_MINOR": minor, "FW_PATCH": patch,
             "PROBE": PROBE_VALUE, "MAX_TRACKS": identity.max_tracks, "TRACK_BASE": TRACK_BASE,
-            "TRACK_STRIDE": TRACK_STRIDE, "WORD_ORDER": int(identity.word_order)}
+            "TRACK_STRIDE": TRACK_STRIDE, "WORD_ORDER": int(identity.word_order),
+            "MMSI_BASE": identity.mmsi_base}
 
 
 def _health_values(h: HealthSnapshot, identity: Identity, utc_ns: int, counter: int,
@@ -355,14 +403,39 @@ def _health_values(h: HealthSnapshot, identity: Identity, utc_ns: int, counter: 
             "ACTIVE_TRACKS": active, "FRAME_RATE": h.frame_rate_hz, "LATENCY": h.latency_s,
             "UPTIME": math.floor(h.uptime_s), "SNAPSHOT_UTC": utc_ns // 1_000_000_000,
             "SNAPSHOT_MS": (utc_ns // 1_000_000 % 1000) / 1000, "UPDATE_COUNTER": counter,
-            "SITE_LAT": identity.site_lat_deg, "SITE_LON": identity.site_lon_deg,
+            "SITE_LAT": identity.site_lat_deg, "SITE_LON": identity.site_lon_deg, **_ais_values(h),
             "ALERTS_ACTIVE": 0, "ALERTS_UNACK": 0, "ALERTS_RAISED": 0, "HBT_STATUS": 0, "ALERT_BLOCK_ADDR": 0}
+
+
+def _ais_values(h: HealthSnapshot) -> dict[str, float | None]:
+    """The AIS health registers from the `ais` stage's counters (all "not available" without it)."""
+    c = next((s.counters for s in h.stages if s.name == "ais"), None)
+    names = [f.name for f in BLOCK_FIELDS["health"] if f.name.startswith("AIS_")]
+    values: dict[str, float | None] = dict.fromkeys(names)
+    if c is None:
+        return values
+
+    def milli(key: str) -> float | None:
+        return c[key] / 1000.0 if key in c else None
+
+    values.update(
+        AIS_DISP_OFFSET=milli("disparity_offset_mpx"), AIS_DISP_SIGMA=milli("disparity_sigma_mpx"),
+        AIS_BRG_OFFSET=milli("bearing_offset_mdeg"), AIS_BRG_SIGMA=milli("bearing_sigma_mdeg"),
+        AIS_MONITOR_SHIPS=c.get("monitor_ships", 0),
+        AIS_MONITOR_FAULTS=(AIS_FAULT_DISPARITY if c.get("disparity_fault") else 0)
+        | (AIS_FAULT_BEARING if c.get("bearing_fault") else 0),
+        AIS_TARGETS=c.get("targets", 0), AIS_LINES=c.get("lines", 0), AIS_DECODED=c.get("decoded", 0),
+        AIS_CHECKSUM_ERRORS=c.get("checksum_errors", 0),
+        AIS_MALFORMED=c.get("malformed", 0) + c.get("unknown_type", 0),
+        AIS_INCOMPLETE=c.get("incomplete", 0), AIS_TOO_OLD=c.get("too_old", 0),
+        AIS_INPUT_ERRORS=c.get("input_errors", 0) + c.get("input_dropped", 0))
+    return values
 
 
 def _slot_values(fx: ShipFix | None, numbers: Mapping[int, int], utc_ns: int,
                  counter: int) -> dict[str, float | None]:
     values: dict[str, float | None] = {f.name: None for f in BLOCK_FIELDS["track"]}
-    values.update(SLOT_STATUS=SLOT_STATUS[None], SEQ=counter)
+    values.update(SLOT_STATUS=SLOT_STATUS[None], SEQ=counter, TARGET_FLAGS=0)
     if fx is None:
         return values
     brg = math.radians(fx.bearing_deg)
@@ -372,7 +445,9 @@ def _slot_values(fx: ShipFix | None, numbers: Mapping[int, int], utc_ns: int,
         RANGE=fx.range_m, BEARING=fx.bearing_deg,
         X_EAST=fx.range_m * math.sin(brg), Y_NORTH=fx.range_m * math.cos(brg),
         AGE=max(0, utc_ns - fx.t_ns) / 1e9, SIGMA=fx.sigma_m,
-        CONFIDENCE=None if fx.confidence is None else 100 * fx.confidence, LENGTH=fx.length_m)
+        CONFIDENCE=None if fx.confidence is None else 100 * fx.confidence, LENGTH=fx.length_m,
+        TARGET_FLAGS=(TARGET_FLAG_AIS if fx.ais_mmsi is not None else 0)
+        | (TARGET_FLAG_DARK if fx.dark else 0))
     return values
 
 
@@ -394,23 +469,25 @@ def _reserved_rows(block: str, base: int, size: int, prefix: str) -> Iterable[tu
 
 def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
     """The README's register map: the whole address range, reserved gaps included."""
-    size = TRACK_BASE + TRACK_STRIDE * max_tracks
+    size = TRACK_BASE + (TRACK_STRIDE + MMSI_STRIDE) * max_tracks
     out = [
         f"Input registers (FC4, references 30001 + address) with a read-only mirror in holding "
         f"registers (FC3, 40001 + address); addresses are 0-based. The map covers 0–{size - 1} "
         f"without gaps (N = {max_tracks} slots by default); writes and addresses outside it get "
-        "exception 02. Slot k starts at T = 100 + 20·k. Stored value = physical value / scale, "
-        "rounded; an empty \"Not available\" cell means the value is always valid; 32-bit values "
-        "high word first unless WORD_ORDER says otherwise.",
+        "exception 02. Slot k starts at T = 100 + 20·k; its MMSI is at M = MMSI_BASE + 2·k "
+        f"(MMSI_BASE = 100 + 20·N = {TRACK_BASE + TRACK_STRIDE * max_tracks}). "
+        "Stored value = physical value / scale, rounded; an empty \"Not available\" cell means the "
+        "value is always valid; 32-bit values high word first unless WORD_ORDER says otherwise.",
         "",
         "| Address | Name | Type | Scale | Unit | Not available | Description |",
         "|---|---|---|---|---|---|---|",
     ]
     for block, (base, bsize) in BLOCKS.items():
         if block == "alert":
-            out.append(f"| {size}–{ALERT_BLOCK - 1} | — | reserved (issue 17's AIS block, then unused) "
+            out.append(f"| {size}–{ALERT_BLOCK - 1} | — | reserved "
                        "| | | | Reads 0; present only with alerts.enabled |")
-        prefix, base_shown = {"track": ("T+", 0), "alert_slot": ("A+", 0)}.get(block, ("", base))
+        prefix, base_shown = {"track": ("T+", 0), "mmsi": ("M+", 0), "alert_slot": ("A+", 0)}.get(
+            block, ("", base))
         rows = [(f.offset, f"| {prefix}{_span(base_shown + f.offset, f.words)} | {f.name} | {f.type} "
                  f"| {f.scale:g} | {f.unit} | {'' if f.na is None else f'0x{f.na:X}'} "
                  f"| {f.description} |") for f in FIELDS if f.block == block]
@@ -418,7 +495,8 @@ def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
         out += [row for _, row in sorted(rows)]
     out += ["", "STATUS bits: " + ", ".join(f"{m.value.bit_length() - 1} {m.name}" for m in Status) + ".",
             "FAULT_CODE = 10 × stage + kind; stages 1 camera_left, 2 camera_right, 3 processing, "
-            "4… outputs in configuration order; kind 1 no heartbeat, 2 fault reported.",
+            "4… outputs in configuration order, 90 ais (when configured); "
+            "kind 1 no heartbeat, 2 fault reported.",
             f"Alert block (issue 18, only with alerts.enabled; then max_tracks <= {MAX_TRACKS_WITH_ALERTS}): "
             f"900–{ALERT_SLOT_BASE - 1}, then {ALERT_SLOTS} alert slots, slot k at A = {ALERT_SLOT_BASE} + "
             f"{ALERT_STRIDE}·k, most urgent first; the map then ends at "

@@ -37,17 +37,19 @@ from pathlib import Path
 
 import numpy as np
 
+import edge.evaluate.ais as eais
 import edge.evaluate.alerts as evaluate_alerts
 import edge.evaluate.metrics as em
 import edge.evaluate.motion as evaluate_motion
 import edge.evaluate.sigma as es
+from edge.ais.stage import feed_until
 from edge.config.app import PipelineConfig
 from edge.config.calibration import recording_calibration
 from edge.core.triangulation import range_error
 from edge.evaluate.stages import stage_pipelines
 from edge.measure.settings import SUBPIXELS, PointSettings
 from edge.pipeline import Pipeline
-from edge.replay import open_recording
+from edge.replay import build_ais, open_recording
 from edge.sim.recording import read_truth
 from edge.sim.ships import KINDS, ShipModel
 
@@ -87,10 +89,17 @@ def run(root: Path, stages: bool, subpixel: str | None = None,
         pipes["product"] = Pipeline(cal, PipelineConfig(alias_check=alias_check), fps=fps,
                                     subpixel=subpixel or PointSettings.subpixel)
     fixes: dict[str, dict[int, list]] = {name: defaultdict(list) for name in pipes}
+    ais, ais_next = build_ais(root, pipes["product"], None), 0  # a recording with ais.csv (issue 17)
     with source:
         for pair in source:
             for name, pipe in pipes.items():
                 fixes[name][pair.t_ns] = pipe.step(pair)
+            if ais is not None:  # the product's fixes with MMSI and dark flag, as replay gives them
+                ais_next = feed_until(ais[0], ais[1], ais_next, pair.t_ns)
+                fixes["product"][pair.t_ns] = ais[0].annotate(fixes["product"][pair.t_ns],
+                                                              pipes["product"].ground.position)
+    if ais is not None:
+        meta = {**meta, "_ais_stage": ais[0]}
     for name, pipe in pipes.items():  # a pipeline error is counted, not raised: its figures would lie
         if pipe.counters.failed:
             print(f"evaluate: {root}: {pipe.counters.failed} pairs abandoned by the {name} pipeline "
@@ -213,6 +222,8 @@ def evaluate_recording(root: Path, stages: bool | None, plot_dir: Path | None,
                "sigma": sig, "sigma_criterion": calibration,
                "motion": motion_table(fixes["product"], ev, meta, product),
                "alerts": alert_table(fixes["product"], root)}
+    if "_ais_stage" in meta:  # issue 17: association, dark flag and the calibration check
+        summary["ais"] = eais.ais_report(fixes["product"], ev, meta, meta["_ais_stage"], product)
     if stages and ships:
         main = max(ships, key=lambda s: sum(m.ship_id == s.ship_id for m in ev.matched)).ship_id
         env = stage_envelopes(results, main, f, product.rig.baseline_m)

@@ -374,6 +374,15 @@ class GroundTracks:
             return None
         return entry.track.state()
 
+    def position(self, track_id: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The track's filtered east/north position (m) and its 2x2 covariance; None before its
+        first fix (the AIS association's gate, edge.ais.associate)."""
+        state = self.state(track_id)
+        if state is None:
+            return None
+        x, p = state
+        return x[:2].copy(), p[:2, :2].copy()
+
     def motion(self, track_id: int) -> Motion | None:
         """The track's east/north velocity and its speed and course sigmas, with whether each is shown
         (its sigma met the configured bound, with `_latch`'s hysteresis; the speed's holds for

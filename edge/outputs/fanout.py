@@ -86,17 +86,17 @@ class Outputs:
     def from_config(cls, cfg: OutputsConfig, health: HealthMonitor, *, max_tracks: int,
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
                     clock: Callable[[], float] = time.monotonic,
-                    alerts: AlertsConfig | None = None) -> Outputs:
+                    alerts: AlertsConfig | None = None, dark_prefix: str = "DARK") -> Outputs:
         manager = AlertManager(alerts, max_tracks) if alerts is not None and alerts.enabled else None
         outputs: list[Output] = []
         for port in cfg.nmea:
-            serial = NmeaSerialOutput.from_config(port)
+            serial = NmeaSerialOutput.from_config(port, dark_prefix)
             if manager is not None and alerts is not None and port.alerts != "none":
                 serial.scheduler.alerts = PortAlerts(manager, alerts, talker=port.talker, mode=port.alerts,
                                                      digits=serial.scheduler.numbers.digits)
             outputs.append(serial)
         if cfg.udp.enabled:
-            udp = NmeaUdpOutput.from_config(cfg.udp)
+            udp = NmeaUdpOutput.from_config(cfg.udp, dark_prefix)
             if manager is not None and alerts is not None:
                 udp.scheduler.alerts = PortAlerts(manager, alerts, talker=cfg.udp.source[:2],
                                                   digits=udp.scheduler.numbers.digits)

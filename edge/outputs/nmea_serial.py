@@ -77,9 +77,9 @@ class NmeaSerialOutput:
         self.received_ignored = 0  # input lines with no alerts to apply them to (issue 18)
 
     @classmethod
-    def from_config(cls, cfg: NmeaPort, **kwargs: Any) -> NmeaSerialOutput:
+    def from_config(cls, cfg: NmeaPort, dark_prefix: str = "DARK", **kwargs: Any) -> NmeaSerialOutput:
         """Build from one `outputs.nmea[i]` entry of the appliance configuration."""
-        return cls(cfg.url, schedule_from_config(cfg), baud=cfg.baud, bytesize=cfg.bytesize,
+        return cls(cfg.url, schedule_from_config(cfg, dark_prefix), baud=cfg.baud, bytesize=cfg.bytesize,
                    parity=cfg.parity, stopbits=cfg.stopbits, read_lines=cfg.accept_acn, **kwargs)
 
     def start(self) -> None:

@@ -62,10 +62,11 @@ class NmeaUdpOutput:
         self._line_count = 1
 
     @classmethod
-    def from_config(cls, cfg: UdpConfig, **kwargs: Any) -> NmeaUdpOutput:
+    def from_config(cls, cfg: UdpConfig, dark_prefix: str = "DARK",
+                    **kwargs: Any) -> NmeaUdpOutput:
         """Build from the `outputs.udp` entry of the appliance configuration."""
-        return cls(schedule_from_config(cfg), group=cfg.group, port=cfg.port, interface=cfg.interface,
-                   ttl=cfg.ttl, source=cfg.source, **kwargs)
+        return cls(schedule_from_config(cfg, dark_prefix), group=cfg.group, port=cfg.port,
+                   interface=cfg.interface, ttl=cfg.ttl, source=cfg.source, **kwargs)
 
     def start(self) -> None:
         """Nothing to open: the socket is made at construction and never blocks."""

@@ -84,6 +84,7 @@ class NmeaSchedule:
     lost_repeats: int = 3  # times a dropped track is sent with status L
     lost_interval_s: float = 1.0  # time between those L sentences
     quarantine_s: float = 60.0  # a number stays unused this long after its last L
+    dark_prefix: str = "DARK"  # name prefix of a dark track (ais.dark_prefix, issue 17)
 
     def __post_init__(self) -> None:
         if not self.sentences or set(self.sentences) - set(KINDS):
@@ -267,7 +268,8 @@ class NmeaScheduler:
         cfg = self.schedule
         try:
             return tuple(track_sentences(fix, number, cfg.sentences, talker=cfg.talker,
-                                         manufacturer=cfg.manufacturer, digits=self.numbers.digits))
+                                         manufacturer=cfg.manufacturer, digits=self.numbers.digits,
+                                         dark_prefix=cfg.dark_prefix))
         except NmeaError as exc:
             if not self._counts["refused"]:
                 log.warning("NMEA: track %d refused (counted, logged once): %s", fix.track_id, exc)
@@ -332,7 +334,7 @@ def fix_counters(stats: SchedulerStats) -> dict[str, int]:
             "nmea_fixes_dropped": stats.fixes_dropped, "nmea_fixes_pending": stats.fixes_pending}
 
 
-def schedule_from_config(cfg: NmeaPort | UdpConfig) -> NmeaSchedule:
+def schedule_from_config(cfg: NmeaPort | UdpConfig, dark_prefix: str = "DARK") -> NmeaSchedule:
     """The `NmeaSchedule` of an `outputs.nmea[i]` or `outputs.udp` configuration entry."""
     sentences: tuple[str, ...]  # the configured kinds, and TXY if proprietary
     sentences, manufacturer = tuple(cfg.sentences), "XXX"
@@ -341,4 +343,4 @@ def schedule_from_config(cfg: NmeaPort | UdpConfig) -> NmeaSchedule:
         sentences, manufacturer = (*sentences, "TXY"), proprietary.manufacturer
     talker = cfg.talker if hasattr(cfg, "talker") else cfg.source[:2]  # UDP: the talker of its s: source
     return NmeaSchedule(sentences=sentences, talker=talker, manufacturer=manufacturer,
-                        send_acquiring=getattr(cfg, "send_acquiring", False))
+                        send_acquiring=getattr(cfg, "send_acquiring", False), dark_prefix=dark_prefix)

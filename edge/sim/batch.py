@@ -21,7 +21,8 @@ from pathlib import Path
 
 import cv2
 
-from edge.sim.recording import RecordingWriter, build_meta, image_paths, write_png
+from edge.sim.ais import ais_lines, antenna_m
+from edge.sim.recording import RecordingWriter, build_meta, image_paths, write_ais, write_png
 from edge.sim.scenario import Scenario
 from edge.sim.scene import horizon_dip_rad
 from edge.sim.simulator import Simulation, Trigger
@@ -84,6 +85,17 @@ def recording_meta(sim: Simulation, n_triggers: int) -> dict:
         }
         for s in sim.ships
     ]
+    for entry, ship, ship_spec in zip(ships, sim.ships, spec.ships, strict=True):
+        if ship_spec.ais is not None:  # only scenarios with AIS: older recordings' meta stays as it was
+            entry["ais"] = {"mmsi": ship_spec.ais.mmsi, "class": ship_spec.ais.ais_class,
+                            "accurate": ship_spec.ais.accurate,
+                            "antenna_m": [round(v, 3) for v in antenna_m(ship, ship_spec.ais)]}
+    extra: dict = {}
+    if any(s.ais is not None for s in spec.ships):  # what the AIS calibration check should find
+        extra["ais_injected"] = {"right_yaw_deg": float(spec.rig_error.right_rotation_deg[1]),
+                                 "heading_deg": float(spec.rig_error.heading_deg)}
+    if spec.rig_error.heading_deg:
+        notes += f" AIS positions on a site heading {spec.rig_error.heading_deg:+g} deg from the stated one."
     return build_meta(
         scenario.calibration,
         spec.fps,
@@ -93,6 +105,7 @@ def recording_meta(sim: Simulation, n_triggers: int) -> dict:
         seed=sim.seed,
         triggers=n_triggers,
         ships=ships,
+        **extra,
     )
 
 
@@ -129,6 +142,9 @@ def write_recording(
             )
             for ship_id, xyz in sim.truth(trig):
                 writer.add_truth(trig.t_ns, ship_id, xyz)
+        if any(s.ais is not None for s in sim.scenario.spec.ships) and triggers:
+            end_s = (triggers[-1].t_ns + 1e9 / sim.scenario.spec.fps) / 1e9
+            write_ais(writer.root, ais_lines(sim.scenario, sim.ships, end_s, sim.seed))
     return len(todo)
 
 

@@ -5,6 +5,7 @@ meta.yaml    format: 1, fps, width, height, calibration: {...}, site: {...}, not
 frames.csv   index,t_ns,seq_left,seq_right,t_left_ns,t_right_ns
 left/000000.png, right/000000.png     8-bit grey lossless PNG
 truth.csv    t_ns,ship_id,x_m,y_m,z_m  (world frame, the ship's tracked point)
+ais.csv      t_ns,sentence  (optional, issue 17: raw !AIVDM lines with checksum, recording clock)
 ```
 
 `index` counts the pairs written (file names follow it); a dropped pair leaves
@@ -31,6 +32,8 @@ from edge.core.site import Site
 FORMAT_VERSION = 1
 FRAMES_HEADER = ("index", "t_ns", "seq_left", "seq_right", "t_left_ns", "t_right_ns")
 TRUTH_HEADER = ("t_ns", "ship_id", "x_m", "y_m", "z_m")
+AIS_HEADER = ("t_ns", "sentence")
+AIS_FILE = "ais.csv"
 PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 3]
 
 
@@ -133,3 +136,33 @@ def read_truth(root: str | Path) -> dict[int, np.ndarray]:
         for t_ns, ship_id, x, y, z in reader:
             rows.setdefault(int(ship_id), []).append((float(t_ns), float(x), float(y), float(z)))
     return {k: np.array(v) for k, v in rows.items()}
+
+
+def write_ais(root: str | Path, lines: list[tuple[int, str]]) -> None:
+    """ais.csv: one row per received line (t_ns on the recording's clock, the raw sentence)."""
+    with open(Path(root) / AIS_FILE, "w", encoding="ascii", newline="") as f:
+        writer = csv.writer(f, lineterminator="\n")
+        writer.writerow(AIS_HEADER)
+        for t_ns, line in lines:
+            writer.writerow((int(t_ns), line))
+
+
+def read_ais(root: str | Path) -> list[tuple[int, str]] | None:
+    """ais.csv as (t_ns, line) in file order; None when the recording has none (older recordings).
+    A row that does not parse is kept as an empty line at the previous time, so the AIS decoder
+    counts it (garbage is the decoder's to count, not the reader's to hide)."""
+    path = Path(root) / AIS_FILE
+    if not path.is_file():
+        return None
+    out: list[tuple[int, str]] = []
+    with open(path, encoding="ascii", errors="replace", newline="") as f:
+        reader = csv.reader(f)
+        header = tuple(next(reader, ()))
+        if header != AIS_HEADER:
+            raise ValueError(f"{path}: expected header {','.join(AIS_HEADER)}, found {','.join(header)}")
+        for row in reader:
+            try:
+                out.append((int(row[0]), ",".join(row[1:])))
+            except (ValueError, IndexError):
+                out.append((out[-1][0] if out else 0, ",".join(row)))
+    return out

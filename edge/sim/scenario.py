@@ -54,6 +54,23 @@ class TrackSpec:
 
 
 @dataclass(frozen=True)
+class ShipAisSpec:
+    """The AIS transponder a ship carries (edge.sim.ais; issue 17)."""
+
+    mmsi: int = setting(min=100_000_000, max=999_999_999, doc="the ship's MMSI (9 digits)")
+    ais_class: Literal["A", "B"] = setting("A", doc="class A (type 1 and 5) or B (CS: type 18 and 24)")
+    name: str = setting("", pattern="[A-Z0-9 @.,-]{0,20}", doc="ship name in the static data (20 characters)")
+    accurate: bool = setting(True, doc="position accuracy flag: 1 = better than 10 m (DGNSS)")
+    gnss_sigma_m: float | None = setting(
+        None, positive=True, doc="GNSS error per axis, m; null: by the flag (1.5 m accurate, 6 m otherwise)")
+    antenna_m: tuple[float, float, float, float] | None = setting(
+        None, min=0.0, doc="A/B/C/D: antenna to bow, stern, port, starboard, m; null: on the bridge")
+    static_interval_s: float = setting(360.0, positive=True, doc="static data (type 5 / 24) every, s")
+    interval_s: float | None = setting(
+        None, positive=True, doc="position report interval, s; null: by speed per ITU-R M.1371")
+
+
+@dataclass(frozen=True)
 class ShipSpec:
     id: int = setting(min=1, max=9999, doc="ship id in truth.csv")
     kind: Literal[KINDS] = setting(doc="hull and superstructure preset")  # type: ignore[valid-type]
@@ -65,6 +82,7 @@ class ShipSpec:
         "preset", doc="superstructure paint: the preset's, or periodic (regular windows, railing)"
     )
     detail_pitch_m: float = setting(2.0, min=0.5, max=10.0, doc="window/railing pitch of detail: periodic")
+    ais: ShipAisSpec | None = setting(None, doc="the AIS transponder it carries; null: none (a dark ship)")
 
 
 @dataclass(frozen=True)
@@ -86,6 +104,9 @@ class RigErrorSpec:
         max=5.0,
         doc="true minus calibrated right-camera rotation: rx vertical misalignment, ry yaw (disparity bias)",
     )
+    heading_deg: float = setting(
+        0.0, min=-10.0, max=10.0,
+        doc="true minus stated site heading: the AIS positions are on the true one (issue 17's monitor)")
 
 
 @dataclass(frozen=True)
@@ -201,6 +222,10 @@ def scenario_from_dict(data: Any, file: str | Path, name: str | None = None) -> 
     lo, hi = spec.glints.duration_s
     if lo > hi:
         raise ConfigError(file, "glints.duration_s", "[shortest, longest] in that order", [lo, hi])
+    mmsis = [s.ais.mmsi for s in spec.ships if s.ais is not None]
+    for i, mmsi in enumerate(mmsis):
+        if mmsi in mmsis[:i]:
+            raise ConfigError(file, "ships[].ais.mmsi", "an MMSI no other ship uses", mmsi)
     build_ships(spec, file)  # track errors surface at load time, not mid-render
     path = Path(file)
     return Scenario(name or path.stem, path, spec, spec.calibration, site)

@@ -38,3 +38,17 @@ def test_redraws_in_place_on_a_terminal_and_throttles_on_a_pipe() -> None:
             v.draw(snap)
     assert tty.getvalue().count("\x1b[H\x1b[J") == 10
     assert "\x1b" not in pipe.getvalue() and pipe.getvalue().count("range m") == 2  # t = 0 and 5 s
+
+
+def test_ais_name_and_dark_columns_only_when_there_is_ais() -> None:
+    from edge.fix import ShipFix, TrackStatus
+
+    base = ShipFix(
+        0, 7, TrackStatus.TRACKING, 0.0, 0.0, 900.0, 900.0, 180.0, 34.6, 135.0, None, None, 2.0, 10.0
+    )
+    import dataclasses
+
+    (plain,) = rows([base], {})
+    (named,) = rows([dataclasses.replace(base, ais_mmsi=431000123, ais_name="AKASHI MARU")], {})
+    (dark,) = rows([dataclasses.replace(base, dark=True)], {})
+    assert named == plain + "  AKASHI MARU" and dark == plain + "  DARK7"

@@ -118,7 +118,7 @@ def test_daemon_lifecycle_under_a_real_notify_socket(tmp_path: Path, notify: Not
         before = [m for _, m in notify.messages[:ready]]
         assert all(m.startswith(("EXTEND_TIMEOUT_USEC=", "WATCHDOG=1")) for m in before), before
         first = mbpoll(port)
-        assert first[0] == 2 and (first[4], first[5]) == (0x1234, 0x5678)  # map version 2, probe
+        assert first[0] == 2 and (first[4], first[5]) == (0x1234, 0x5678)  # map version (2: issue 17), probe
         assert first[27] >= 1  # UPDATE_COUNTER: the first pair was processed and published before READY
         assert first[17] & (1 << 3) and first[17] & (1 << 7)  # STATUS: CALIBRATION_VALID, SITE_SURVEYED
         lines: list[str] = []
@@ -169,13 +169,13 @@ def test_sighup_keeps_a_broken_config_out_and_applies_a_valid_one(tmp_path: Path
         assert proc.poll() is None
         assert not any(m.startswith("RELOADING=1") for _, m in notify.messages)
         assert any("reload refused" in m for _, m in notify.messages[ready:])  # in STATUS
-        assert mbpoll(port)[0] == 2  # still serving on the old configuration
+        assert mbpoll(port)[0] == 2  # (map version) still serving on the old configuration
         write_config(tmp_path, new_port)
         proc.send_signal(signal.SIGHUP)
         reloading = notify.wait_for("RELOADING=1", timeout_s=20.0)
         assert re.search(r"MONOTONIC_USEC=\d+", notify.messages[reloading][1])
         notify.wait_for("READY=1", timeout_s=20.0, after=reloading)
-        assert mbpoll(new_port)[0] == 2  # the new port serves
+        assert mbpoll(new_port)[0] == 2  # the new port serves (map version 2)
         proc.send_signal(signal.SIGTERM)
         _, stderr = proc.communicate(timeout=10)
         assert proc.returncode == 0 and "reload refused" in stderr and "not-a-port" in stderr, stderr

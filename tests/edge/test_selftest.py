@@ -94,3 +94,23 @@ def test_selftest_reads_the_running_daemon(tmp_path: Path) -> None:
     finally:
         daemon.terminate()
         daemon.wait(timeout=10)
+
+
+def test_ais_calibration_check_reads_the_health_registers() -> None:
+    """Issue 17: selftest's AIS line from registers 40-45 as the register map builds them."""
+    from edge.encode.registers import Identity, SlotAssignment, build_snapshot
+    from edge.health import HealthSnapshot, HealthState, StageHealth
+    from edge.selftest import _ais_monitor_text
+
+    def regs(counters: dict[str, int]) -> tuple[int, ...]:
+        health = HealthSnapshot(HealthState.OK, "", 1, 0, 10.0, 0.1, 5.0, (StageHealth("ais", True, 0.1, None,
+                                                                                        counters),))
+        snap = build_snapshot([], health, Identity((0, 1, 0), 4), SlotAssignment.empty(4), utc_ns=0)
+        return snap.registers[40:46]
+
+    text, fault = _ais_monitor_text(regs({"disparity_offset_mpx": 91, "disparity_sigma_mpx": 7,
+                                          "bearing_offset_mdeg": -20, "bearing_sigma_mdeg": 30,
+                                          "monitor_ships": 3, "disparity_fault": 1}))
+    assert fault and text == ("disparity offset +0.091 px (sigma 0.007), bearing offset -0.020 deg "
+                              "(sigma 0.030), 3 ships")
+    assert _ais_monitor_text(regs({"lines": 5})) is None  # no estimate yet

@@ -322,3 +322,34 @@ def test_any_target_name_from_outside_gives_valid_sentences_within_82_chars(
         assert line.count("\r") == line.count("\n") == 1 and opencpn_accepts(line)
     assert pynmea2.parse(nmea.ttm(fix, number, name=name), check=True).name == safe
     assert pynmea2.parse(nmea.tll(fix, number, name=name), check=True).target_name == safe
+
+
+# -- AIS names (issue 17) ------------------------------------------------------------------------
+
+
+@given(name=st.text(min_size=0, max_size=40))
+@settings(max_examples=60, deadline=None)
+def test_ais_names_are_safe_and_within_82_characters(name: str) -> None:
+    fx = make_fix(ais_mmsi=431000123, ais_name=name, sog_kn=123.4, cog_deg=359.9, range_m=99_999.0)
+    kept = " ".join("".join(c for c in name if " " <= c <= "~" and c not in "$*,!\\^~").split())[:20].strip()
+    for line in nmea.track_sentences(fx, 99, ("TTM", "TLL", "TXY")):
+        assert len(line) <= nmea.MAX_SENTENCE_CHARS
+        msg = pynmea2.parse(line.strip())  # an independent parser reads it back
+        kind = line[3:6]
+        got = msg.data[10] if kind == "TTM" else msg.data[5] if kind == "TLL" else None
+        if got is not None:  # the name, cut (not below 8 characters) only where the line would pass 82
+            expected = kept or "431000123"
+            assert expected.startswith(got) and (got == expected or len(got) >= nmea.NAME_CHARS)
+
+
+def test_mmsi_dark_and_prefix_names() -> None:
+    ttm_line = nmea.track_sentences(make_fix(ais_mmsi=431000123), 7, ("TTM",))[0]
+    assert pynmea2.parse(ttm_line.strip()).data[10] == "431000123"
+    named = nmea.track_sentences(make_fix(ais_mmsi=431000123, ais_name="AKASHI MARU 3"), 7, ("TLL",))[0]
+    assert pynmea2.parse(named.strip()).data[5] == "AKASHI MARU 3"
+    dark = nmea.track_sentences(make_fix(dark=True), 7, ("TTM",))[0]
+    assert pynmea2.parse(dark.strip()).data[10] == "DARK4711"
+    other = nmea.track_sentences(make_fix(dark=True), 7, ("TTM",), dark_prefix="NOAIS")[0]
+    assert pynmea2.parse(other.strip()).data[10] == "NOAIS4711"
+    plain = nmea.track_sentences(make_fix(dark=True), 7, ("TTM",), dark_prefix="")[0]
+    assert pynmea2.parse(plain.strip()).data[10] == "TRK4711"

@@ -64,9 +64,10 @@ def words(regs, at: int, n: int = 1) -> tuple[int, ...]:
 def test_identity_block_and_probe(order: WordOrder, probe: tuple[int, int]) -> None:
     ident = Identity((1, 2, 3), max_tracks=4, word_order=order)
     regs = build([], ident).registers
-    assert words(regs, 0, 10) == (2, 1, 2, 3, *probe, 4, 100, 20, int(order))  # map version 2 (issues 17, 18)
+    assert words(regs, 0, 11) == (2, 1, 2, 3, *probe, 4, 100, 20, int(order), 180)
     assert read_field(regs, "PROBE", word_order=order) == PROBE_VALUE
-    assert words(regs, 10, 6) == (0,) * 6  # reserved
+    assert words(regs, 11, 5) == (0,) * 5  # reserved
+    assert read_field(regs, "MMSI_BASE") == 100 + 20 * 4  # map version 2: the MMSI block follows the slots
 
 
 def test_worked_example_slot_matches_the_research_note() -> None:
@@ -185,7 +186,7 @@ def test_overflow_prefers_tracking_then_nearest() -> None:
 def test_update_counter_wraps_and_map_is_complete() -> None:
     snap = build([fix(5)], previous=SlotAssignment((None,) * 4, update_counter=0xFFFF))
     assert snap.registers[27] == 0 and snap.assignment.update_counter == 0
-    assert len(snap.registers) == 100 + 20 * 4
+    assert len(snap.registers) == 100 + 20 * 4 + 2 * 4  # the slots, then one u32 MMSI per slot
     assert all(0 <= r <= 0xFFFF for r in snap.registers)
     with pytest.raises(ValueError, match="duplicate"):
         build([fix(5), fix(5)])
@@ -230,3 +231,30 @@ def test_register_table_tool_prints_the_generated_table() -> None:
     out = subprocess.run([str(ROOT / "tools" / "register-table")], capture_output=True, text=True,
                          check=True, timeout=300)
     assert out.stdout == render_markdown_table()
+
+
+def test_ais_slot_flags_mmsi_block_and_health_registers() -> None:
+    """Map version 2 (issue 17): TARGET_FLAGS, one u32 MMSI per slot after the slots, and the AIS
+    monitor's values read from the `ais` health stage's counters (milli-units)."""
+    from edge.health import StageHealth
+
+    ais = StageHealth("ais", True, 0.1, None, {"disparity_offset_mpx": -87, "disparity_sigma_mpx": 12,
+                                               "bearing_offset_mdeg": 250, "bearing_sigma_mdeg": 40,
+                                               "monitor_ships": 3, "disparity_fault": 1, "lines": 70000,
+                                               "checksum_errors": 5, "malformed": 2, "unknown_type": 1})
+    health = HealthSnapshot(HEALTH.state, "", HEALTH.status_bits, 0, 29.97, 0.05, 100.0, (ais,))
+    snap = build_snapshot([fix(5, ais_mmsi=431000123), fix(6, dark=True), fix(7)], health, IDENT,
+                          SlotAssignment.empty(4), utc_ns=T0_NS)
+    regs = snap.registers
+    assert [read_field(regs, "TARGET_FLAGS", slot=k) for k in range(4)] == [1, 2, 0, 0]
+    assert read_field(regs, "MMSI", slot=0, max_tracks=4) == 431000123
+    assert read_field(regs, "MMSI", slot=1, max_tracks=4) is None  # 0xFFFFFFFF: none
+    assert address_of("MMSI", slot=0, max_tracks=4) == read_field(regs, "MMSI_BASE") == 180
+    assert address_of("MMSI", slot=0) == 740 and address_of("AIS_DISP_OFFSET") == 40
+    assert math.isclose(read_field(regs, "AIS_DISP_OFFSET"), -0.087)
+    assert math.isclose(read_field(regs, "AIS_BRG_OFFSET"), 0.25)
+    assert read_field(regs, "AIS_MONITOR_FAULTS") == 1 and read_field(regs, "AIS_MONITOR_SHIPS") == 3
+    assert read_field(regs, "AIS_LINES") == 70000 and read_field(regs, "AIS_MALFORMED") == 3
+    plain = build([fix(5)]).registers  # without an `ais` stage: "not available"
+    assert read_field(plain, "AIS_DISP_OFFSET") is None and read_field(plain, "AIS_LINES") is None
+    assert all(40 <= address_of(f.name) <= 59 for f in FIELDS if f.name.startswith("AIS_"))
