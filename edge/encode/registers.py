@@ -5,7 +5,7 @@ block, offset, type, scale, unit, "not available" sentinel and description.
 From it come (a) `build_snapshot()`, a pure function turning the live fixes
 and health into a complete, gap-free tuple of u16 registers that the Modbus
 driver publishes atomically, (b) `read_field()` for clients and tests, and
-(c) `render_markdown_table()`, the README's register table
+(c) `edge.encode.register_table.render_markdown_table()`, the README's register table
 (`tools/register-table`; a test fails if the README drifts from it).
 
 Layout: identity block at 0, health block at 16, track slots of fixed stride
@@ -25,12 +25,13 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from edge.encode.ais_rows import ais_values
 from edge.encode.alert_rows import AlertImage, alert_values
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthSnapshot, Status
+from edge.health import HealthSnapshot
 
 MAP_VERSION = 2  # 2: TARGET_FLAGS, the MMSI block, the AIS health registers (issue 17); the alerts (issue 18)
 PROBE_VALUE = 0x12345678
@@ -48,7 +49,6 @@ BLOCKS = {"identity": (0, 16), "health": (16, TRACK_BASE - 16), "track": (TRACK_
           "alert": (ALERT_BLOCK, ALERT_SLOT_BASE - ALERT_BLOCK),
           "alert_slot": (ALERT_SLOT_BASE, ALERT_STRIDE)}
 TARGET_FLAG_AIS, TARGET_FLAG_DARK = 1 << 0, 1 << 1
-AIS_FAULT_DISPARITY, AIS_FAULT_BEARING = 1 << 0, 1 << 1
 TYPES = {"u16": (1, False), "i16": (1, True), "u32": (2, False), "i32": (2, True)}  # words, signed
 NA_U16, NA_I16, NA_U32, NA_I32 = 0xFFFF, 0x8000, 0xFFFFFFFF, 0x7FFFFFFF
 SLOT_STATUS = {None: 0, TrackStatus.ACQUIRING: 1, TrackStatus.TRACKING: 2, TrackStatus.LOST: 3}
@@ -188,6 +188,7 @@ FIELDS += (  # issue 18: alerts (edge.alerts); all 0 / "not available" with aler
 )
 BY_NAME = {f.name: f for f in FIELDS}
 BLOCK_FIELDS = {block: tuple(f for f in FIELDS if f.block == block) for block in BLOCKS}
+AIS_NAMES = [f.name for f in BLOCK_FIELDS["health"] if f.name.startswith("AIS_")]  # issue 17
 
 
 def _check_layout() -> None:
@@ -403,33 +404,8 @@ def _health_values(h: HealthSnapshot, identity: Identity, utc_ns: int, counter: 
             "ACTIVE_TRACKS": active, "FRAME_RATE": h.frame_rate_hz, "LATENCY": h.latency_s,
             "UPTIME": math.floor(h.uptime_s), "SNAPSHOT_UTC": utc_ns // 1_000_000_000,
             "SNAPSHOT_MS": (utc_ns // 1_000_000 % 1000) / 1000, "UPDATE_COUNTER": counter,
-            "SITE_LAT": identity.site_lat_deg, "SITE_LON": identity.site_lon_deg, **_ais_values(h),
+            "SITE_LAT": identity.site_lat_deg, "SITE_LON": identity.site_lon_deg, **ais_values(h, AIS_NAMES),
             "ALERTS_ACTIVE": 0, "ALERTS_UNACK": 0, "ALERTS_RAISED": 0, "HBT_STATUS": 0, "ALERT_BLOCK_ADDR": 0}
-
-
-def _ais_values(h: HealthSnapshot) -> dict[str, float | None]:
-    """The AIS health registers from the `ais` stage's counters (all "not available" without it)."""
-    c = next((s.counters for s in h.stages if s.name == "ais"), None)
-    names = [f.name for f in BLOCK_FIELDS["health"] if f.name.startswith("AIS_")]
-    values: dict[str, float | None] = dict.fromkeys(names)
-    if c is None:
-        return values
-
-    def milli(key: str) -> float | None:
-        return c[key] / 1000.0 if key in c else None
-
-    values.update(
-        AIS_DISP_OFFSET=milli("disparity_offset_mpx"), AIS_DISP_SIGMA=milli("disparity_sigma_mpx"),
-        AIS_BRG_OFFSET=milli("bearing_offset_mdeg"), AIS_BRG_SIGMA=milli("bearing_sigma_mdeg"),
-        AIS_MONITOR_SHIPS=c.get("monitor_ships", 0),
-        AIS_MONITOR_FAULTS=(AIS_FAULT_DISPARITY if c.get("disparity_fault") else 0)
-        | (AIS_FAULT_BEARING if c.get("bearing_fault") else 0),
-        AIS_TARGETS=c.get("targets", 0), AIS_LINES=c.get("lines", 0), AIS_DECODED=c.get("decoded", 0),
-        AIS_CHECKSUM_ERRORS=c.get("checksum_errors", 0),
-        AIS_MALFORMED=c.get("malformed", 0) + c.get("unknown_type", 0),
-        AIS_INCOMPLETE=c.get("incomplete", 0), AIS_TOO_OLD=c.get("too_old", 0),
-        AIS_INPUT_ERRORS=c.get("input_errors", 0) + c.get("input_dropped", 0))
-    return values
 
 
 def _slot_values(fx: ShipFix | None, numbers: Mapping[int, int], utc_ns: int,
@@ -449,56 +425,3 @@ def _slot_values(fx: ShipFix | None, numbers: Mapping[int, int], utc_ns: int,
         TARGET_FLAGS=(TARGET_FLAG_AIS if fx.ais_mmsi is not None else 0)
         | (TARGET_FLAG_DARK if fx.dark else 0))
     return values
-
-
-def _span(start: int, words: int) -> str:
-    return f"{start}" if words == 1 else f"{start}–{start + words - 1}"
-
-
-def _reserved_rows(block: str, base: int, size: int, prefix: str) -> Iterable[tuple[int, str]]:
-    used = {o for f in FIELDS if f.block == block for o in range(f.offset, f.offset + f.words)}
-    start = None
-    for o in range(size + 1):
-        if o < size and o not in used:
-            start = o if start is None else start
-        elif start is not None:
-            cells = f"{prefix}{_span(base + start, o - start)}"
-            yield start, f"| {cells} | — | reserved | | | | Reads 0 |"
-            start = None
-
-
-def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
-    """The README's register map: the whole address range, reserved gaps included."""
-    size = TRACK_BASE + (TRACK_STRIDE + MMSI_STRIDE) * max_tracks
-    out = [
-        f"Input registers (FC4, references 30001 + address) with a read-only mirror in holding "
-        f"registers (FC3, 40001 + address); addresses are 0-based. The map covers 0–{size - 1} "
-        f"without gaps (N = {max_tracks} slots by default); writes and addresses outside it get "
-        "exception 02. Slot k starts at T = 100 + 20·k; its MMSI is at M = MMSI_BASE + 2·k "
-        f"(MMSI_BASE = 100 + 20·N = {TRACK_BASE + TRACK_STRIDE * max_tracks}). "
-        "Stored value = physical value / scale, rounded; an empty \"Not available\" cell means the "
-        "value is always valid; 32-bit values high word first unless WORD_ORDER says otherwise.",
-        "",
-        "| Address | Name | Type | Scale | Unit | Not available | Description |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for block, (base, bsize) in BLOCKS.items():
-        if block == "alert":
-            out.append(f"| {size}–{ALERT_BLOCK - 1} | — | reserved "
-                       "| | | | Reads 0; present only with alerts.enabled |")
-        prefix, base_shown = {"track": ("T+", 0), "mmsi": ("M+", 0), "alert_slot": ("A+", 0)}.get(
-            block, ("", base))
-        rows = [(f.offset, f"| {prefix}{_span(base_shown + f.offset, f.words)} | {f.name} | {f.type} "
-                 f"| {f.scale:g} | {f.unit} | {'' if f.na is None else f'0x{f.na:X}'} "
-                 f"| {f.description} |") for f in FIELDS if f.block == block]
-        rows += _reserved_rows(block, base_shown, bsize, prefix)
-        out += [row for _, row in sorted(rows)]
-    out += ["", "STATUS bits: " + ", ".join(f"{m.value.bit_length() - 1} {m.name}" for m in Status) + ".",
-            "FAULT_CODE = 10 × stage + kind; stages 1 camera_left, 2 camera_right, 3 processing, "
-            "4… outputs in configuration order, 90 ais (when configured); "
-            "kind 1 no heartbeat, 2 fault reported.",
-            f"Alert block (issue 18, only with alerts.enabled; then max_tracks <= {MAX_TRACKS_WITH_ALERTS}): "
-            f"900–{ALERT_SLOT_BASE - 1}, then {ALERT_SLOTS} alert slots, slot k at A = {ALERT_SLOT_BASE} + "
-            f"{ALERT_STRIDE}·k, most urgent first; the map then ends at "
-            f"{ALERT_SLOT_BASE + ALERT_STRIDE * ALERT_SLOTS - 1}."]
-    return "\n".join(out) + "\n"

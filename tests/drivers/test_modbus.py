@@ -124,12 +124,12 @@ def test_writes_and_reads_outside_the_map_get_exception_02(tcp) -> None:
     for args in (["-t", "4", "-r", "5", host, "7"],  # FC6
                  ["-t", "4", "-r", "100", host, "1", "2"],  # FC16
                  ["-t", "0", "-r", "3", host, "1"],  # FC5 coil
-                 ["-t", "3", "-r", "735", "-c", "10", host],  # runs past 739
-                 ["-t", "4", "-r", "740", host],
+                 ["-t", "3", "-r", "799", "-c", "10", host],  # runs past 803 (the MMSI block's end)
+                 ["-t", "4", "-r", "804", host],
                  ["-t", "3", "-r", "60000", host]):
         rc, values, text = mbpoll(*tcp_args(tcp), *args)
         assert rc != 0 and "Illegal data address" in text and not values, (args, text)
-    rc, values, _ = mbpoll(*tcp_args(tcp), "-t", "3", "-r", "615", "-c", "125", host)  # last full block
+    rc, values, _ = mbpoll(*tcp_args(tcp), "-t", "3", "-r", "679", "-c", "125", host)  # last full block
     assert rc == 0 and len(values) == 125
     rc, _, text = mbpoll(*tcp_args(tcp), "-t", "0", "-r", "3", host)
     assert rc != 0 and "Illegal function" in text
@@ -188,7 +188,7 @@ def test_mbpoll_reads_over_rtu_through_a_pty(pty_pair, parity: str, mbpoll_parit
         check_scaled_values(conn, str(client_end))
         rc, _, text = mbpoll(*conn, "-t", "4", "-r", "5", str(client_end), "7")
         assert rc != 0 and "Illegal data address" in text
-        rc, _, text = mbpoll(*conn, "-t", "3", "-r", "739", "-c", "2", str(client_end))
+        rc, _, text = mbpoll(*conn, "-t", "3", "-r", "803", "-c", "2", str(client_end))  # past the MMSI block
         assert rc != 0 and "Illegal data address" in text
         before = server.stats.requests
         rc, values, text = mbpoll(*conn[:-1], "6", "-t", "3", "-r", "0", str(client_end))

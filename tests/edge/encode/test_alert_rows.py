@@ -72,4 +72,4 @@ def test_alert_block_round_trip() -> None:
 def test_without_alerts_the_map_is_as_before() -> None:
     ident = Identity((1, 0, 0), max_tracks=32)
     regs = build_snapshot([], HEALTH, ident, SlotAssignment.empty(32), utc_ns=0).registers
-    assert len(regs) == 740 and regs[60:65] == (0, 0, 0, 0, 0)
+    assert len(regs) == 100 + 22 * 32 and regs[60:65] == (0, 0, 0, 0, 0)  # slots, then the MMSI block

@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from edge.encode.register_table import render_markdown_table
 from edge.encode.registers import (
     ALERT_SLOT_BASE,
     ALERT_STRIDE,
@@ -28,7 +29,6 @@ from edge.encode.registers import (
     decode,
     encode,
     read_field,
-    render_markdown_table,
 )
 from edge.fix import ShipFix, TrackStatus
 from edge.health import HealthSnapshot, HealthState, Status
@@ -201,20 +201,21 @@ def test_addresses() -> None:
         address_of("LAT")
 
 
-def _covered(table: str) -> tuple[list[int], list[int], list[int]]:
-    fixed, slot, alert = [], [], []
-    for m in re.finditer(r"^\| ([TA]\+)?(\d+)(?:–(\d+))? \|", table, re.M):
+def _covered(table: str) -> tuple[list[int], list[int], list[int], list[int]]:
+    fixed, slot, alert, mmsi = [], [], [], []
+    for m in re.finditer(r"^\| ([TAM]\+)?(\d+)(?:–(\d+))? \|", table, re.M):
         cells = range(int(m[2]), int(m[3] or m[2]) + 1)
-        {"T+": slot, "A+": alert, None: fixed}[m[1]].extend(cells)
-    return fixed, slot, alert
+        {"T+": slot, "A+": alert, "M+": mmsi, None: fixed}[m[1]].extend(cells)
+    return fixed, slot, alert, mmsi
 
 
 def test_table_documents_every_address_once() -> None:
-    fixed, slot, alert = _covered(render_markdown_table())
-    track_end = TRACK_BASE + TRACK_STRIDE * 32
-    # identity and health, then (issue 18) the gap after the slots and the alert block's head
-    assert sorted(fixed) == list(range(TRACK_BASE)) + list(range(track_end, ALERT_SLOT_BASE))
+    fixed, slot, alert, mmsi = _covered(render_markdown_table())
+    mmsi_end = TRACK_BASE + (TRACK_STRIDE + 2) * 32
+    # identity and health, then (issue 18) the gap after the MMSI block (issue 17) and the alert block's head
+    assert sorted(fixed) == list(range(TRACK_BASE)) + list(range(mmsi_end, ALERT_SLOT_BASE))
     assert sorted(slot) == list(range(TRACK_STRIDE)) and sorted(alert) == list(range(ALERT_STRIDE))
+    assert sorted(mmsi) == [0, 1]
     for f in FIELDS:
         assert f"| {f.name} |" in render_markdown_table()
     assert BY_NAME["LAT"].scale == 1e-7
