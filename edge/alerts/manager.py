@@ -325,7 +325,10 @@ class AlertManager:
 
         self._fixed(AlertId.CAMERA_LOST, 1, bad("camera_left"), now_ns)
         self._fixed(AlertId.CAMERA_LOST, 2, bad("camera_right"), now_ns)
-        calibration = not snap.status_bits & Status.CALIBRATION_VALID or any(
+        ais = stages.get("ais")  # issue 17's online check: a disparity or bearing offset beyond its bound
+        drift = ais is not None and bool(ais.counters.get("disparity_fault")
+                                         or ais.counters.get("bearing_fault"))
+        calibration = drift or not snap.status_bits & Status.CALIBRATION_VALID or any(
             bad(n) for n in stages if n.startswith("calibration"))
         self._fixed(AlertId.CALIBRATION, 1, calibration, now_ns)
         self._fixed(AlertId.PROCESSING, 1, bad("processing"), now_ns)

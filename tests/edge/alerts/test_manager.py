@@ -165,12 +165,12 @@ def test_capacity_caution_at_95_percent_and_full() -> None:
     assert levels(17, 30) == set()
 
 
-def _health(left_fresh: bool, calibration_valid: bool) -> HealthSnapshot:
+def _health(left_fresh: bool, calibration_valid: bool, ais: dict | None = None) -> HealthSnapshot:
     stages = (
         StageHealth("camera_left", left_fresh, 0.1, None, {}),
         StageHealth("camera_right", True, 0.1, None, {}),
         StageHealth("processing", True, 0.1, None, {}),
-    )
+    ) + (() if ais is None else (StageHealth("ais", True, 0.1, None, ais),))
     bits = Status.CALIBRATION_VALID if calibration_valid else Status(0)
     state = HealthState.OK if left_fresh and calibration_valid else HealthState.DEGRADED
     return HealthSnapshot(state, "", int(bits), 0, 10.0, 0.1, 5.0, stages)
@@ -188,6 +188,19 @@ def test_appliance_faults_from_health() -> None:
     for t in range(4, 8):
         m.step([], T0_NS + t * 10**9, _health(True, True))
     assert m.active() == [] and m.health_ok
+
+
+def test_the_ais_calibration_check_raises_the_calibration_alert() -> None:
+    m = AlertManager(AlertsConfig(enabled=True, confirm_s=1.0), 32)
+    for t in range(4):
+        m.step([], T0_NS + t * 10**9, _health(True, True, {"disparity_fault": 0, "bearing_fault": 0}))
+    assert m.active() == []
+    for t in range(4, 8):
+        m.step([], T0_NS + t * 10**9, _health(True, True, {"disparity_fault": 1, "bearing_fault": 0}))
+    assert {(a.alert_id, a.instance) for a in m.active()} == {(AlertId.CALIBRATION, 1)}
+    for t in range(8, 20):
+        m.step([], T0_NS + t * 10**9, _health(True, True, {"disparity_fault": 0, "bearing_fault": 0}))
+    assert m.active() == []
 
 
 def test_stop_clears_every_alert_and_raises_none() -> None:
