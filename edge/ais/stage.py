@@ -99,7 +99,7 @@ class AisStage:
             target = self.table.targets.get(mmsi) if mmsi is not None else None
             name = None if target is None else target.name
             out.append(dataclasses.replace(f, ais_mmsi=mmsi, ais_name=name, dark=a.dark))
-            if a.dark and f.track_id not in self._dark_logged:  # the journal line (alert 10001 reads the flag)
+            if a.dark and f.track_id not in self._dark_logged:  # the journal line (alert 10001: the flag)
                 self._dark_logged.add(f.track_id)
                 log.info("track %d is dark: no AIS association for %.0f s (range %.0f m, bearing %.1f deg)",
                          f.track_id, self.cfg.dark_after_s, f.range_m, f.bearing_deg)
