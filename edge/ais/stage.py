@@ -19,7 +19,7 @@ import numpy as np
 
 from edge.ais.associate import Associator, TrackGeometry
 from edge.ais.decode import AisCounters, AisDecoder, PositionReport
-from edge.ais.monitor import MAX_REPORT_AGE_S, Estimate, OffsetEstimator, residual
+from edge.ais.monitor import MAX_REPORT_AGE_S, NEAR_SHARE, Estimate, OffsetEstimator, residual
 from edge.ais.targets import SIGMA_ACCURATE_M, Predicted, TargetTable
 from edge.config.ais import AisConfig
 from edge.core.geo import enu_to_world
@@ -140,7 +140,7 @@ class AisStage:
         r = float(np.hypot(*point))
         los = point / r
         sin_aspect = abs(float(los[0] * fwd[1] - los[1] * fwd[0]))
-        point = point - los * half_beam * sin_aspect  # the near side of the superstructure
+        point = point - los * NEAR_SHARE * half_beam * sin_aspect  # half way to the near side (module doc)
         world = enu_to_world(np.array([point[0], point[1], 0.0]), self.site.heading_deg)
         bearing = math.degrees(math.atan2(point[0], point[1])) % 360.0
         fb = self.focal_px * self.baseline_m

@@ -9,11 +9,11 @@ A full 2048x1536 render of 10 minutes is too long for a routine check, so this i
 2. A measurement-level run: class-A ships (DGNSS, flag 1) crossing at 1.2-3 km for `--minutes`,
    AIS lines from the simulator's transmitter (`edge.sim.ais`: ITU-R M.1371 intervals, GNSS
    noise), and at 1 fps one T fix per ship in view whose disparity is f L_B / Z of the monitor's
-   expected point (near side of the superstructure under the antenna) plus the injected offset
+   expected point (half way from the centreline to the near side under the antenna) plus the injected offset
    plus white noise of the measured scatter, and whose bearing is the true one plus the heading
    error plus noise. These fixes go through the real `AisStage` (association and monitor).
    What it cannot show: a bias of where on the hull the camera's point lies against the
-   monitor's near-side model; step 1's mean residual shows that one.
+   monitor's model of it; step 1's mean residual shows that one.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from edge.ais.monitor import Estimate
+from edge.ais.monitor import NEAR_SHARE, Estimate
 from edge.ais.stage import AisStage
 from edge.config.ais import AisConfig
 from edge.core.geo import range_bearing, world_to_latlon
@@ -128,7 +128,7 @@ def simulate(
             r = math.hypot(x, z)
             los = np.array([x, z]) / r
             sin_aspect = abs(los[0] * math.cos(h) - los[1] * math.sin(h))
-            near = np.array([x, z]) - los * ship.model.beam_m / 2.0 * sin_aspect
+            near = np.array([x, z]) - los * NEAR_SHARE * ship.model.beam_m / 2.0 * sin_aspect
             d = f * b / near[1] + offset_px + float(rng.normal(0.0, sigma_d_px))
             world = np.array([near[0], 0.0, near[1]])
             rng_m, brg = range_bearing(world, site.heading_deg)
