@@ -3,13 +3,15 @@ textures."""
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
+
+# a TCP port on 127.0.0.1 nothing listens on: the fault rig's, re-exported for the tests
+from edge.faults._rig import free_port as free_port
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -18,13 +20,6 @@ def run_cli(*args: str | Path, cwd: Path = ROOT, timeout_s: float = 120.0) -> su
     """`mast-stereo ARGS` in a fresh interpreter, output captured as text."""
     return subprocess.run([sys.executable, "-m", "edge.cli", *map(str, args)], cwd=cwd,
                           capture_output=True, text=True, timeout=timeout_s)
-
-
-def free_port() -> int:
-    """A TCP port on 127.0.0.1 nothing listens on right now."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def band_texture(seed: int, h: int, w: int, sigma: float = 1.2) -> np.ndarray:

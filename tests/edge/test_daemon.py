@@ -14,7 +14,6 @@ import os
 import re
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -28,6 +27,7 @@ from helpers import free_port
 from edge.config.app import load_config
 from edge.daemon import Appliance
 from edge.errors import EX_CONFIG
+from edge.faults._rig import NotifyListener
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -49,28 +49,12 @@ def write_config(tmp_path: Path, port: int) -> Path:
     return path
 
 
-class NotifySocket:
-    """systemd's side of sd_notify: an AF_UNIX datagram socket read all the time (so the daemon never
-    blocks on a full queue), every message kept with its CLOCK_MONOTONIC arrival time."""
+class NotifySocket(NotifyListener):
+    """systemd's side of sd_notify (edge.faults' listener: a datagram socket read all the time, so the
+    daemon never blocks on a full queue, each message with its CLOCK_MONOTONIC arrival time), waited
+    on by message index."""
 
-    def __init__(self, path: Path) -> None:
-        self.path = str(path)
-        self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-        self.sock.bind(self.path)
-        self.sock.settimeout(0.2)
-        self.messages: list[tuple[float, str]] = []
-        self._done = threading.Event()
-        self._reader = threading.Thread(target=self._drain, daemon=True)
-        self._reader.start()
-
-    def _drain(self) -> None:
-        while not self._done.is_set():
-            try:
-                self.messages.append((time.monotonic(), self.sock.recv(4096).decode()))
-            except TimeoutError:
-                pass
-
-    def wait_for(self, prefix: str, timeout_s: float = 60.0, after: int = 0) -> int:
+    def wait_for(self, prefix: str, timeout_s: float = 60.0, after: int = 0) -> int:  # type: ignore[override]
         """Index of the first message starting with `prefix` at or after index `after`."""
         end = time.monotonic() + timeout_s
         while time.monotonic() < end:
@@ -79,14 +63,6 @@ class NotifySocket:
                     return k
             time.sleep(0.05)
         raise AssertionError(f"no {prefix!r} in {[m for _, m in self.messages]}")
-
-    def times(self, prefix: str) -> list[float]:
-        return [t for t, m in self.messages if m.startswith(prefix)]
-
-    def close(self) -> None:
-        self._done.set()
-        self._reader.join()
-        self.sock.close()
 
 
 @pytest.fixture
