@@ -344,12 +344,12 @@ class TrackPoint(PointFilter):
         assert isinstance(m, Match)  # the answer to a StereoMatch
         self.match = m
         if self.s.alias_check and m.valid:
-            check = yield self._check_request(m, left, right, rect)
+            check = yield self._near_request(m, left, right, rect, check_window(self.s.window))
             assert isinstance(check, Match)  # the answer to a StereoMatch
             self.alias.add(m, check)
         if self.s.depth_check and m.valid and self.frame % depth_every(self.s.fps) == 0:
             for k, (du, dv) in enumerate(OFFSETS):
-                sub = yield self._sub_request(m, left, right, rect, du, dv)
+                sub = yield self._near_request(m, left, right, rect, SUB_WINDOW, du, dv)
                 assert isinstance(sub, Match)
                 self.depth.add(k, m, sub)
         clean = m.valid and not self._mixed(m.cost)
@@ -367,19 +367,13 @@ class TrackPoint(PointFilter):
         if self.followed or self.template_age == 0:
             self._fit_column()  # only positions the tracker measured enter the motion fit
 
-    def _check_request(self, m: Match, left: np.ndarray, right: np.ndarray, rect: Rectifier) -> StereoMatch:
-        """The aliasing cross-check: the same point with the check window (edge.measure.aliascheck),
-        searched around the main match."""
-        w = check_window(self.s.window)
-        settings = replace(self.match_settings, window=w, search_radius=2)
-        return stereo_request(replace(self.s, window=w), left, right, rect, self.u, self.v, m.disparity_px,
-                              settings)
-
-    def _sub_request(self, m: Match, left: np.ndarray, right: np.ndarray, rect: Rectifier,
-                     du: int, dv: int) -> StereoMatch:
-        """One of the depth check's sub-windows (edge.measure.depthcheck), searched around the main match."""
-        settings = replace(self.match_settings, window=SUB_WINDOW, search_radius=2)
-        return stereo_request(replace(self.s, window=SUB_WINDOW), left, right, rect, self.u + du, self.v + dv,
+    def _near_request(self, m: Match, left: np.ndarray, right: np.ndarray, rect: Rectifier, window: int,
+                      du: int = 0, dv: int = 0) -> StereoMatch:
+        """A cross-check of the main match: the point moved by (du, dv) px, matched with another
+        window, searched +-2 px around the main match (the alias check's smaller window,
+        edge.measure.aliascheck; the depth check's sub-windows, edge.measure.depthcheck)."""
+        settings = replace(self.match_settings, window=window, search_radius=2)
+        return stereo_request(replace(self.s, window=window), left, right, rect, self.u + du, self.v + dv,
                               m.disparity_px, settings)
 
     def _mixed(self, cost: float) -> bool:
