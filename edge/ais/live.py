@@ -61,6 +61,8 @@ class LiveAis:
         out = list(fixes)
         try:
             if self.source is not None:
+                if self.source.stats().fault is not None:  # receiver gone: no dark flags meanwhile
+                    self.stage.input_lost()
                 for t_ns, line in self.source.drain():
                     self.stage.feed(t_ns, line)
             out = self.stage.annotate(fixes, geometry)

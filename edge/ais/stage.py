@@ -66,6 +66,11 @@ class AisStage:
         if self.input_start_ns is None:
             self.input_start_ns = int(t_ns)
 
+    def input_lost(self) -> None:
+        """The receiver is gone: "no AIS" can no longer be told from "no receiver", so no track is
+        dark until lines come again and the warm-up has run anew (`start` from the next line)."""
+        self.input_start_ns = None
+
     def feed(self, t_ns: int, line: str | bytes) -> None:
         self.start(t_ns)
         for report in self.decoder.feed(line, t_ns):

@@ -56,7 +56,8 @@ class AisConfig:
     confirm_s: float = setting(5.0, min=0.0, doc="a new association is reported after this long unchanged")
     dark_after_s: float = setting(20.0, positive=True, doc="a T track unassociated this long is dark")
     warmup_s: float = setting(
-        30.0, min=0.0, doc="no track is dark before the AIS input has run this long (class-B interval)")
+        30.0, min=0.0, doc="no track is dark before the AIS input has run this long (class-B interval); "
+        "again after the receiver was lost")
     dark_prefix: str = setting("DARK", pattern="[A-Z0-9]{0,6}",
                                doc="TTM/TLL name prefix of a dark track ('': no prefix)")
     monitor: AisMonitorConfig = setting(default_factory=AisMonitorConfig)

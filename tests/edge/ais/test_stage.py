@@ -167,6 +167,42 @@ def test_garbage_on_the_input_never_stops_tracking() -> None:
         live.close()
 
 
+def test_no_track_is_dark_while_the_receiver_is_gone() -> None:
+    """An unplugged receiver is not a harbour without AIS: no dark flag until it is back and the
+    warm-up has run again; then the boat without AIS turns dark."""
+    import time
+
+    cfg = AisConfig(confirm_s=0.0, dark_after_s=2.0, warmup_s=1.0)
+    now_ns = [0]
+    source = VirtualAisInput(clock=lambda: now_ns[0])  # lines stamped on the fixes' clock
+    live = LiveAis(cfg, SITE, F_PX, B_M, source=source)
+    source.set_present(False)
+    live.start(0)
+    try:
+        deadline = time.monotonic() + 5.0
+        while source.stats().fault is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert source.stats().fault is not None
+        for k in range(100):  # 10 s of a boat nobody's AIS covers, receiver gone
+            assert not live.step([fix(1, k * S, 0.0, 800.0)], None, None)[0].dark
+        source.set_present(True)
+        deadline = time.monotonic() + 10.0
+        while source.stats().fault is not None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert source.stats().fault is None
+        now_ns[0] = 100 * S
+        source.push((ais_position(431000006, 500.0, 2000.0)[0] + "\n").encode())
+        deadline = time.monotonic() + 5.0
+        while source.stats().lines == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        darks = []
+        for k in range(100, 200):
+            darks.append(live.step([fix(1, k * S, 0.0, 800.0)], None, None)[0].dark)
+        assert darks[0] is False and darks[-1] is True  # dark again once the input runs
+    finally:
+        live.close()
+
+
 def test_a_lost_track_keeps_its_identity() -> None:
     stage = AisStage(AisConfig(confirm_s=0.0), SITE, F_PX, B_M)
     stage.start(0)
