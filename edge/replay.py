@@ -5,9 +5,9 @@
 meta.yaml; a configuration file, when given, overrides the calibration and
 site it names and supplies the pipeline settings. Pairs are processed as fast
 as the CPU allows, in recording order, by the same `Pipeline` the daemon
-runs; NMEA goes through the daemon's `NmeaScheduler` on an unlimited line,
-clocked by the pairs' own timestamps. No wall clock enters anywhere, so the
-same recording gives byte-identical output.
+runs, inside the same `Chain` (AIS from the recording's ais.csv, alerts when configured); NMEA
+goes through the daemon's NMEA stream output on an unlimited line, clocked by the pairs' own
+timestamps. No wall clock enters anywhere, so the same recording gives byte-identical output.
 
 With `alerts.enabled` in the configuration the alert sentences (ALF, ALC, HBT: edge.alerts) go
 out too, before the track updates of each pair, clocked by the same timestamps; HBT says A
@@ -28,18 +28,18 @@ from pathlib import Path
 from typing import TextIO
 
 from drivers.camera.replay import RecordingFormatError, ReplaySource
-from edge.ais.stage import AisStage, feed_until
-from edge.alerts.manager import AlertManager
+from edge.ais.live import RecordedAis
+from edge.ais.stage import AisStage
 from edge.alerts.port import PortAlerts
-from edge.config.ais import AisConfig
+from edge.chain import Chain
 from edge.config.app import AppConfig, PipelineConfig, load_config
 from edge.config.calibration import Calibration, recording_calibration
 from edge.encode.tracks_csv import CSV_HEADER, csv_row
 from edge.errors import ConfigError
 from edge.fix import ShipFix
-from edge.outputs.schedule import NmeaSchedule, NmeaScheduler
+from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Counters, Pipeline
-from edge.sim.recording import read_ais
+from edge.recording.format import read_ais
 
 log = logging.getLogger(__name__)
 
@@ -95,62 +95,51 @@ def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | N
     return Pipeline(cal, pipeline_cfg, fps=float(fps))
 
 
-def build_ais(root: str | Path, pipeline: Pipeline, config: AppConfig | None) -> tuple[AisStage, list] | None:
-    """The AIS stage and the recording's ais.csv lines, or None when it has none (config.ais, else
-    the defaults)."""
+def recorded_ais(root: str | Path) -> RecordedAis | None:
+    """The recording's ais.csv lines as an AIS source, or None when it has none."""
     try:
         lines = read_ais(root)
     except ValueError as exc:
         raise ConfigError(Path(root) / "ais.csv", "header", "t_ns,sentence", str(exc)) from None
-    if lines is None:
-        return None
-    cfg = (config.ais if config is not None else None) or AisConfig()
-    stage = AisStage(cfg, pipeline.site, pipeline.rect.f_px, pipeline.rig.baseline_m)
-    if lines:
-        stage.start(min(lines[0][0], 0))
-    return stage, lines
+    return None if lines is None else RecordedAis(lines)
+
+
+def build_chain(root: str | Path, source: ReplaySource, config: AppConfig | None) -> Chain:
+    """The chain for a recording: its pipeline; AIS when it has an ais.csv (config.ais, else the
+    defaults); alerts when the configuration enables them."""
+    pipeline = build_pipeline(root, source, config)
+    ais = recorded_ais(root)
+    chain = Chain.from_config(config, pipeline, ais) if config is not None else \
+        Chain(pipeline, Chain.build_ais(None, pipeline, ais))
+    if ais is not None and ais.lines:
+        chain.start(min(ais.lines[0][0], 0))
+    return chain
 
 
 def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: TextIO | None = None,
            tracks: TextIO | None = None, on_fixes: Callable[[int, list[ShipFix]], None] | None = None
            ) -> ReplaySummary:
-    """Run the pipeline over a recording; write NMEA lines to `nmea` and CSV rows to `tracks`."""
+    """Run the chain over a recording; write NMEA lines to `nmea` and CSV rows to `tracks`."""
     config = load_config(config_path) if config_path is not None else None
     source = open_recording(root)
-    pipeline = build_pipeline(root, source, config)
-    summary = ReplaySummary(pairs_in_recording=len(source), pipeline=pipeline.counters)
-    ais = build_ais(root, pipeline, config)
-    ais_next = 0
-    if ais is not None:
-        summary.ais = ais[0]
-    now = [0.0]
-    scheduler = NmeaScheduler(NmeaSchedule(), None, clock=lambda: now[0])
-    manager = None
-    if config is not None and config.alerts.enabled:  # issue 18: the alert sentences too
-        manager = AlertManager(config.alerts, config.pipeline.max_tracks)
-        scheduler.alerts = PortAlerts(manager, config.alerts)
+    chain = build_chain(root, source, config)
+    summary = ReplaySummary(pairs_in_recording=len(source), pipeline=chain.pipeline.counters)
+    if chain.ais is not None:
+        summary.ais = chain.ais.stage
+    stream = NmeaStreamOutput(nmea, clock=None, newline="\r\n")
+    if chain.alerts is not None:  # the alert sentences too, before the track updates of each pair
+        stream.scheduler.alerts = PortAlerts(chain.alerts, chain.alerts.cfg)
     seen: set[int] = set()
     if tracks is not None:
         tracks.write(CSV_HEADER + "\n")
     with source:
         for pair in source:
-            fixes = pipeline.step(pair)
-            if ais is not None:  # the lines received up to this exposure, then the association
-                stage, lines = ais
-                ais_next = feed_until(stage, lines, ais_next, pair.t_ns)
-                fixes = stage.annotate(fixes, pipeline.ground.position)
-            now[0] = pair.t_ns / 1e9
-            if manager is not None:
-                manager.step(fixes, pair.t_ns)
-            for fix in fixes:
-                seen.add(fix.track_id)
-                if tracks is not None:
-                    tracks.write(csv_row(fix) + "\n")
-                    summary.csv_rows += 1
-            for group in scheduler.step(fixes):
-                if nmea is not None:
-                    nmea.write("".join(group))
-                summary.nmea_lines += len(group)
+            fixes = chain.step(pair)
+            seen.update(fix.track_id for fix in fixes)
+            if tracks is not None:
+                tracks.write("".join(csv_row(fix) + "\n" for fix in fixes))
+                summary.csv_rows += len(fixes)
+            summary.nmea_lines += sum(len(group) for group in stream.publish(fixes, pair.t_ns))
             if on_fixes is not None:
                 on_fixes(pair.t_ns, fixes)
     summary.skipped_pairs, summary.dropped_pairs = source.skipped, source.dropped

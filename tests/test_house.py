@@ -6,7 +6,9 @@
 - `edge/measure` never imports outputs, encodings, the daemon or the replay runner;
 - `edge/outputs` and `edge/encode` never import the runners or the commands;
 - `drivers` never import `edge`;
-- `tools/` are thin executables over the installed package: no sys.path edits, no helper modules;
+- `edge` and `drivers` never import `lab` (evaluation, benchmarks, fault injection, fake devices);
+- `tools/` are thin executables over the installed package: no sys.path edits, no helper modules
+  but `_venv.py`, which re-runs a tool under the project venv;
 - every module has a docstring and stays small.
 """
 
@@ -24,13 +26,14 @@ CORE_FORBIDDEN = {
     "asyncio", "serial", "pymodbus", "yaml", "drivers", "logging", "time", "shutil", "tempfile",
 }
 LAYER_RULES = {  # package prefix: module prefixes it must not import
-    "edge.core": ("edge.measure", "edge.encode", "edge.outputs", "edge.config", "edge.sim", "edge.evaluate",
-                  "edge.bench", "edge.commands", "edge.daemon", "edge.replay", "edge.pipeline", "edge.health",
-                  "edge.fix", "edge.errors", "edge.cli", "edge.inputs"),
-    "edge.measure": ("edge.outputs", "edge.encode", "edge.daemon", "edge.replay", "edge.commands"),
-    "edge.outputs": ("edge.replay", "edge.daemon", "edge.commands"),
-    "edge.encode": ("edge.replay", "edge.daemon", "edge.commands", "edge.outputs"),
-    "drivers": ("edge",),
+    "edge.core": ("edge.measure", "edge.encode", "edge.outputs", "edge.config", "edge.sim", "lab",
+                  "edge.commands", "edge.appliance", "edge.recording", "edge.replay", "edge.pipeline",
+                  "edge.chain", "edge.fix", "edge.errors", "edge.cli", "edge.ais", "edge.alerts"),
+    "edge.measure": ("edge.outputs", "edge.encode", "edge.appliance.daemon", "edge.replay", "edge.commands"),
+    "edge.outputs": ("edge.replay", "edge.appliance.daemon", "edge.commands"),
+    "edge.encode": ("edge.replay", "edge.appliance.daemon", "edge.commands", "edge.outputs"),
+    "drivers": ("edge", "lab"),
+    "edge": ("lab",),  # the wheel carries edge and drivers only: the appliance never needs the lab
 }
 MAX_LINES = 450
 
@@ -154,8 +157,11 @@ def test_core_is_pure(path: Path) -> None:
     assert "open(" not in source.replace("reopen(", ""), f"{path}: edge/core must not do file I/O"
 
 
+VENV_BOOTSTRAP = "_venv.py"  # the one helper module: re-runs a tool under the project venv
+
+
 def _tools() -> list[Path]:
-    return sorted(p for p in (ROOT / "tools").iterdir() if p.is_file())
+    return sorted(p for p in (ROOT / "tools").iterdir() if p.is_file() and p.name != VENV_BOOTSTRAP)
 
 
 @pytest.mark.parametrize("path", _tools(), ids=lambda p: p.name)

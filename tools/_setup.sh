@@ -64,4 +64,8 @@ if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$want" ]]; then
     .venv/bin/python -m pip install -q -e ".[test,plots]" >&2
     echo "$want" > "$stamp"
 fi
+# The lab package (evaluation, benchmarks, fault injection, fake devices) is not in the wheel: a .pth
+# puts the checkout's root on the venv's path so tests, tools and their child processes import it.
+site="$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
+[[ "$(cat "$site/mast_stereo_lab.pth" 2>/dev/null)" == "$ROOT" ]] || echo "$ROOT" > "$site/mast_stereo_lab.pth"
 export PATH="$ROOT/.venv/bin:$PATH"

@@ -3,7 +3,7 @@
 Loads and checks the configuration, calibration and outputs before opening
 any device (a mistake exits 78 with one line naming file and key; so does a
 configuration or calibration file that others can write: edge.config.trust), then runs
-`edge.daemon.Appliance` until SIGTERM/SIGINT, the end of a finite source, or
+`edge.appliance.daemon.Appliance` until SIGTERM/SIGINT, the end of a finite source, or
 `--seconds`; SIGHUP reloads the configuration file (`systemctl reload`). READY=1,
 STATUS=, WATCHDOG=1, RELOADING=1 and STOPPING=1 go to systemd when $NOTIFY_SOCKET is
 set; under systemd the log goes to the journal as structured records. `--print-nmea`
@@ -42,9 +42,9 @@ def run(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     # imported only now: a configuration mistake exits 78 without loading OpenCV, pymodbus and the rest
     from drivers.notify import SystemdNotifier
-    from edge.console import LiveTable
-    from edge.daemon import Appliance
-    from edge.journal import setup_logging
+    from edge.appliance.console import LiveTable
+    from edge.appliance.daemon import Appliance
+    from edge.appliance.journal import setup_logging
     from edge.outputs.nmea_stream import NmeaStreamOutput
 
     setup_logging(config.logging.level)

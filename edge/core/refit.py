@@ -15,7 +15,7 @@ the remaining disparity is near zero, and eq. 5.2 on -log NCC (the Gaussian mode
 
 A finite window's correlation peak is not symmetric (its edge columns), which shifts each fit
 by a per-texture constant of ~0.02 px; in the RL fit it has the other sign, so the average
-removes it. Why not Gauss-Newton on interpolated samples (edge/bench/subpix_study.py): there
+removes it. Why not Gauss-Newton on interpolated samples (lab/bench/subpix_study.py): there
 the interpolator's phase error at fractional positions is the estimate's error, and short
 kernels (linear, Keys, Lanczos-3) have too much of it; here an 8-tap kernel carries it, and
 only the right image is resampled, so the left one keeps its noise unfiltered.

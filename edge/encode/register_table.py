@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from edge.appliance.health import Status
 from edge.encode.registers import (
     ALERT_BLOCK,
     ALERT_SLOT_BASE,
@@ -18,7 +19,6 @@ from edge.encode.registers import (
     TRACK_BASE,
     TRACK_STRIDE,
 )
-from edge.health import Status
 
 
 def _span(start: int, words: int) -> str:

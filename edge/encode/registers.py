@@ -28,10 +28,10 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from edge.appliance.health import HealthSnapshot
 from edge.encode.ais_rows import ais_values
 from edge.encode.alert_rows import AlertImage, alert_values
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthSnapshot
 
 MAP_VERSION = 2  # 2: TARGET_FLAGS, the MMSI block, the AIS health registers (issue 17); the alerts (issue 18)
 PROBE_VALUE = 0x12345678

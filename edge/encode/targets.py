@@ -22,7 +22,7 @@ the oldest waiting track is served first.
 A track that comes back while its number is lost or in quarantine gets the
 same number again (it is the same ship).
 
-Across a restart (`edge.state`): `held` lists what is not free, `hold` puts a number into
+Across a restart (`edge.appliance.state`): `held` lists what is not free, `hold` puts a number into
 quarantine with no owner (the previous run's), and `version` changes whenever the set of
 numbers lent or held changes, so the caller saves the state only then.
 """

@@ -13,10 +13,10 @@ health of this step's other outputs. Modbus shows the NMEA target number of the 
 serial port (each port has its own allocator: numbers are per receiver); with no NMEA port the
 field reads "not available".
 
-Alerts (issue 18, `alerts.enabled`): one `AlertManager` is stepped with each step's fixes and the
-health before any output publishes; every NMEA output whose port does not say `alerts: none` gets
-its own `PortAlerts` (its target numbers, its sentences), and Modbus shows the alert block with
-the first serial port's numbers.
+Alerts (`alerts.enabled`): the chain (`edge.chain`) steps the one `AlertManager` with each step's
+fixes and the health before any output publishes; the outputs only render it: every NMEA output
+whose port does not say `alerts: none` gets its own `PortAlerts` (its target numbers, its
+sentences), and Modbus shows the alert block with the first serial port's numbers.
 """
 
 from __future__ import annotations
@@ -28,14 +28,13 @@ from collections.abc import Callable, Sequence
 
 from drivers.modbus import ModbusRtuServer, ModbusServer, ModbusTcpServer
 from edge import __version__
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertManager, AlertState
 from edge.alerts.port import PortAlerts
+from edge.appliance.health import HealthMonitor, HealthSnapshot, Status
 from edge.config.app import OutputsConfig
 from edge.encode.alert_rows import AlertImage, AlertRow
 from edge.encode.registers import ALERT_SLOTS, Identity, WordOrder
 from edge.fix import ShipFix
-from edge.health import HealthMonitor, HealthSnapshot, Status
 from edge.outputs.base import Output
 from edge.outputs.modbus import ModbusOutput
 from edge.outputs.nmea_serial import NmeaSerialOutput
@@ -86,19 +85,21 @@ class Outputs:
     def from_config(cls, cfg: OutputsConfig, health: HealthMonitor, *, max_tracks: int,
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
                     clock: Callable[[], float] = time.monotonic,
-                    alerts: AlertsConfig | None = None, dark_prefix: str = "DARK") -> Outputs:
-        manager = AlertManager(alerts, max_tracks) if alerts is not None and alerts.enabled else None
+                    alerts: AlertManager | None = None, dark_prefix: str = "DARK") -> Outputs:
+        """The configured transports; with `alerts` (the chain's manager) the NMEA ports render its
+        alert sentences and Modbus its alert block."""
+        manager = alerts
         outputs: list[Output] = []
         for port in cfg.nmea:
             serial = NmeaSerialOutput.from_config(port, dark_prefix)
-            if manager is not None and alerts is not None and port.alerts != "none":
-                serial.scheduler.alerts = PortAlerts(manager, alerts, talker=port.talker, mode=port.alerts,
-                                                     digits=serial.scheduler.numbers.digits)
+            if manager is not None and port.alerts != "none":
+                serial.scheduler.alerts = PortAlerts(manager, manager.cfg, talker=port.talker,
+                                                     mode=port.alerts, digits=serial.scheduler.numbers.digits)
             outputs.append(serial)
         if cfg.udp.enabled:
             udp = NmeaUdpOutput.from_config(cfg.udp, dark_prefix)
-            if manager is not None and alerts is not None:
-                udp.scheduler.alerts = PortAlerts(manager, alerts, talker=cfg.udp.source[:2],
+            if manager is not None:
+                udp.scheduler.alerts = PortAlerts(manager, manager.cfg, talker=cfg.udp.source[:2],
                                                   digits=udp.scheduler.numbers.digits)
             outputs.append(udp)
         if cfg.tracks_csv is not None:
@@ -161,8 +162,6 @@ class Outputs:
         stage: str | None = None
         faults: list[str] = []
         counters: Counter[str] = Counter()
-        if self.alerts is not None:  # before any output: each renders this step's alerts
-            self.alerts.step(fixes, utc_ns, self.health.snapshot())
         for out in self.outputs:
             if out.stage != stage:
                 self._beat(stage, faults, counters)
@@ -180,8 +179,7 @@ class Outputs:
         """Only the Modbus image, with the health as it is now (no pair came: nothing new to send on
         NMEA or to the CSV, but the PLC must see a camera gone as soon as the health does); with
         alerts on, the NMEA ports also send what alert sentences are due (HBT, a camera-lost ALF)."""
-        if self.alerts is not None:  # a camera gone is an alert, and HBT goes on (with V) meanwhile
-            self.alerts.health_step(utc_ns, self.health.snapshot())
+        if self.alerts is not None:  # the chain stepped the alerts' health: send what is due (HBT, ALF)
             for nmea in self.outputs:
                 if isinstance(nmea, NmeaSerialOutput | NmeaUdpOutput | NmeaStreamOutput):
                     nmea.publish_alerts()

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import cv2
 
+from edge.recording.format import RecordingWriter, build_meta, image_paths, write_ais, write_png
 from edge.sim.ais import ais_lines, antenna_m
-from edge.sim.recording import RecordingWriter, build_meta, image_paths, write_ais, write_png
 from edge.sim.scenario import Scenario
 from edge.sim.scene import horizon_dip_rad
 from edge.sim.simulator import Simulation, Trigger
@@ -121,7 +121,7 @@ def write_recording(
     global _WORKER
     triggers = sim.triggers[: frames if frames is not None else len(sim.triggers)]
     todo = [t for t in triggers if t.index >= 0]
-    with RecordingWriter(out, recording_meta(sim, len(triggers)), overwrite=overwrite) as writer:
+    with RecordingWriter(out, recording_meta(sim, len(triggers)), overwrite=overwrite, truth=True) as writer:
         if jobs > 1 and len(todo) > 1:
             with _spawn_pool(min(jobs, len(todo)), sim, writer.root) as pool:
                 for done, _ in enumerate(pool.imap(_render_one, todo, chunksize=2), 1):
@@ -137,7 +137,7 @@ def write_recording(
             finally:
                 _WORKER = None
         for trig in todo:
-            writer.add_frame(
+            writer.add_row(
                 trig.index, trig.t_ns, trig.seq_left, trig.seq_right, trig.t_left_ns, trig.t_right_ns
             )
             for ship_id, xyz in sim.truth(trig):

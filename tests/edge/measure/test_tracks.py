@@ -22,7 +22,7 @@ from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 from edge.measure.tracks import CLIPPED_DN, WINDOW_VOTES, TableSettings, Track, TrackTable
 from edge.pipeline import Pipeline
-from edge.sim.recording import read_truth
+from edge.recording.format import read_truth
 
 W, H, F, B, HEIGHT = 400, 300, 900.0, 8.0, 25.0
 
