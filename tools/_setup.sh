@@ -5,6 +5,11 @@
 #    Modbus client);
 #  - a venv in .venv with the project installed editable, with the test and plots extras.
 set -euo pipefail
+# `TOOL -h|--help`: the calling tool's header comment (its usage), before anything is installed.
+if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
+    sed -n '2,/^[^#]/p' "$0" | sed -e '/^[^#]/d' -e 's/^# \{0,1\}//'
+    exit 0
+fi
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 

@@ -10,6 +10,8 @@ Run: .venv/bin/python tools/demo-geometry
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 from edge.core.camera import PinholeCamera, StereoRig
@@ -18,7 +20,8 @@ from edge.core.triangulation import epsilon, position_error
 WIDTH, HEIGHT, FOV_DEG, BASELINE_M = 720, 480, 43.0, 8.14
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    argparse.ArgumentParser(prog="demo-geometry", description=__doc__).parse_args(argv)
     fx = WIDTH / (2 * np.tan(np.radians(FOV_DEG / 2)))
     cam = PinholeCamera(fx=fx, fy=fx, cx=(WIDTH - 1) / 2, cy=(HEIGHT - 1) / 2)
     rig = StereoRig(BASELINE_M, WIDTH, HEIGHT, cam, cam)
