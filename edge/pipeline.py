@@ -69,6 +69,7 @@ class Pipeline:
                  site: Site | None = None, subpixel: str = PointSettings.subpixel, filter: str | None = None,
                  utc_offset_ns: int = 0) -> None:
         cfg = config or PipelineConfig()
+        exp = cfg.experimental  # research switches: the defaults are the product
         site = site or calibration.site
         if site is None:
             raise ValueError("the pipeline needs a site (lat/lon/height/heading) for positions")
@@ -81,12 +82,11 @@ class Pipeline:
         self.detector = Detector(self.rect, site.height_m, decimation=cfg.detect_decimation,
                                  min_ship_px=cfg.min_ship_px)
         self.point_settings = PointSettings(
-            fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=cfg.cost,
+            fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=exp.cost,
             prefilter=cfg.prefilter, subpixel=subpixel,
-            filter=filter or cfg.filter, butterworth_cutoff_hz=cfg.butterworth_cutoff_hz,
-            gate_sigma=cfg.gate_sigma, reacquire_s=cfg.coast_s, baseline_m=self.rig.baseline_m,
-            focal_px=self.rect.f_px, alias_check=cfg.alias_check,
-            depth_check=cfg.depth_check)
+            filter=filter or exp.filter, butterworth_cutoff_hz=exp.butterworth_cutoff_hz,
+            gate_sigma=exp.gate_sigma, reacquire_s=cfg.coast_s, baseline_m=self.rig.baseline_m,
+            focal_px=self.rect.f_px, alias_check=exp.alias_check, depth_check=exp.depth_check)
         self.table = TrackTable(self.rect, site.height_m, self.point_settings,
                                 TableSettings(coast_s=cfg.coast_s, max_tracks=cfg.max_tracks,
                                               waterline_tol_px=2.0 + 2.0 * cfg.detect_decimation))

@@ -120,22 +120,15 @@ class VirtualCameras:
 
 
 @dataclass(frozen=True)
-class PipelineConfig:
-    window: int = setting(15, min=3, max=63, check=_odd, doc="matching window side, px (eq. 3.8)")
-    max_disparity: int = setting(128, min=1, max=2048, doc="disparity search range, px")
+class ExperimentalConfig:
+    """Research switches (`pipeline.experimental`): for measuring alternatives in the lab, not for
+    operators. The defaults are the product; turning the cross-checks off leaves the fixes' sigma
+    smaller than their real error, and another filter or cost has not been validated like them."""
+
     cost: Literal["zssd", "ssd"] = setting("zssd", doc="zero-mean SSD (robust to gain/offset) or plain SSD")
-    prefilter: Literal["none", "xsobel"] = setting(
-        "none", doc="xsobel for real cameras: clipped horizontal Sobel before matching, robust to "
-        "response-curve/vignetting differences; costs accuracy on clean renders"
-    )
-    detect_every: int = setting(5, min=1, max=1000, doc="run ship detection on every k-th pair")
-    detect_decimation: int = setting(2, min=1, max=8, doc="detection works on an image shrunk by this")
-    min_ship_px: int = setting(20, min=2, max=1000, doc="smallest ship length to detect, px (eq. 3.12)")
-    max_tracks: int = setting(32, min=1, max=99, doc="live tracks at most (NMEA numbers 01-99)")
     filter: Literal["kalman", "butterworth"] = setting("kalman", doc="disparity filter (Butterworth eq. 6.1)")
     butterworth_cutoff_hz: float = setting(0.5, positive=True, doc="cut-off of the Butterworth filter")
     gate_sigma: float = setting(3.0, positive=True, doc="innovation gate of the Kalman filter, sigmas")
-    coast_s: float = setting(3.0, min=0.0, max=600.0, doc="a track unseen this long turns lost (L)")
     alias_check: bool = setting(
         True, doc="cross-check every match with a 4-px smaller window and widen the fix's sigma by their "
         "persistent disagreement, at most 0.1 px (aliasing on sharp optics; one more match per track)"
@@ -145,6 +138,21 @@ class PipelineConfig:
         "persistent disagreement with the 15-px match, at most 0.5 px (the depth a near end-on ship spans "
         "in one window; four small matches per track)"
     )
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    window: int = setting(15, min=3, max=63, check=_odd, doc="matching window side, px (eq. 3.8)")
+    max_disparity: int = setting(128, min=1, max=2048, doc="disparity search range, px")
+    prefilter: Literal["none", "xsobel"] = setting(
+        "none", doc="xsobel for real cameras: clipped horizontal Sobel before matching, robust to "
+        "response-curve/vignetting differences; costs accuracy on clean renders"
+    )
+    detect_every: int = setting(5, min=1, max=1000, doc="run ship detection on every k-th pair")
+    detect_decimation: int = setting(2, min=1, max=8, doc="detection works on an image shrunk by this")
+    min_ship_px: int = setting(20, min=2, max=1000, doc="smallest ship length to detect, px (eq. 3.12)")
+    max_tracks: int = setting(32, min=1, max=99, doc="live tracks at most (NMEA numbers 01-99)")
+    coast_s: float = setting(3.0, min=0.0, max=600.0, doc="a track unseen this long turns lost (L)")
     max_sog_sigma_kn: float = setting(
         0.75, positive=True, max=50.0,
         doc="SOG is reported once the ground-plane filter's 1-sigma is at most this, knots (0.75: table 3's "
@@ -153,6 +161,9 @@ class PipelineConfig:
         5.5, positive=True, max=180.0,
         doc="COG is reported once its 1-sigma is at most this (and SOG's meets its bound), degrees (5.5: "
         "table 3's 1-min 11 deg at 95 %)")
+    experimental: ExperimentalConfig = setting(
+        default_factory=ExperimentalConfig,
+        doc="research switches, not for operators: the defaults are the validated product")
 
 
 # ---------------------------------------------------------------- outputs

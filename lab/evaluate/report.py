@@ -43,7 +43,7 @@ import lab.evaluate.metrics as em
 import lab.evaluate.motion as evaluate_motion
 import lab.evaluate.sigma as es
 from edge.chain import Chain
-from edge.config.app import PipelineConfig
+from edge.config.app import ExperimentalConfig, PipelineConfig
 from edge.config.calibration import recording_calibration
 from edge.core.triangulation import range_error
 from edge.measure.settings import SUBPIXELS, PointSettings
@@ -78,16 +78,17 @@ def run(root: Path, stages: bool, subpixel: str | None = None,
         alias_check: bool = True) -> tuple[dict[str, dict[int, list]], Pipeline, dict]:
     """Fixes by stage name and pair time; the product pipeline (for its counters and geometry),
     with another sub-pixel method than its default if `subpixel` is given, and with
-    pipeline.alias_check off unless `alias_check` (the default: on; the other stages stay the thesis's)."""
+    pipeline.experimental.alias_check off unless `alias_check` (the default: on; the other stages
+    stay the thesis's)."""
     source = open_recording(root)
     meta = source.meta
     cal = recording_calibration(root, meta)
     fps = float(meta["fps"])
     pipes = stage_pipelines(cal, PipelineConfig(), fps=fps) if stages else \
         {"product": Pipeline(cal, PipelineConfig(), fps=fps)}
-    if subpixel is not None or alias_check != PipelineConfig.alias_check:
-        pipes["product"] = Pipeline(cal, PipelineConfig(alias_check=alias_check), fps=fps,
-                                    subpixel=subpixel or PointSettings.subpixel)
+    if subpixel is not None or alias_check != ExperimentalConfig.alias_check:
+        product = PipelineConfig(experimental=ExperimentalConfig(alias_check=alias_check))
+        pipes["product"] = Pipeline(cal, product, fps=fps, subpixel=subpixel or PointSettings.subpixel)
     fixes: dict[str, dict[int, list]] = {name: defaultdict(list) for name in pipes}
     ais = recorded_ais(root)  # the product runs in the chain replay runs: AIS from ais.csv when present
     chain = Chain(pipes["product"], Chain.build_ais(None, pipes["product"], ais))
@@ -292,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--subpixel", choices=SUBPIXELS, help="the product pipeline's sub-pixel method "
                         f"(default {PointSettings.subpixel})")
     parser.add_argument("--no-alias-check", dest="alias_check", action="store_false",
-                        help="the product pipeline with pipeline.alias_check off (before/after)")
+                        help="the product pipeline with pipeline.experimental.alias_check off (before/after)")
     args = parser.parse_args(argv)
     summaries = [evaluate_recording(r, args.stages, args.plots, args.subpixel, args.alias_check)
                  for r in args.recordings]

@@ -23,7 +23,7 @@ def stage_pipelines(calibration: Calibration, config: PipelineConfig | None = No
     return {
         "whole-pixel": Pipeline(calibration, cfg, fps=fps, site=site, subpixel="none", filter="none"),
         "sub-pixel": Pipeline(calibration, cfg, fps=fps, site=site, subpixel="parabola", filter="none"),
-        "butterworth": Pipeline(calibration, replace(cfg, cost="ssd"), fps=fps, site=site,
-                                subpixel="parabola", filter="butterworth"),
+        "butterworth": Pipeline(calibration, replace(cfg, experimental=replace(cfg.experimental, cost="ssd")),
+                                fps=fps, site=site, subpixel="parabola", filter="butterworth"),
         "product": Pipeline(calibration, cfg, fps=fps, site=site),
     }
