@@ -13,7 +13,10 @@ a few metres away a huge one):
   (`height_m` plus `hills_m` of smooth relief over `hill_scale_m`): the ray
   hits the face if it is below that height at the shore, else the plateau
   (a sphere `height` above the sea, so the far coast sinks behind the
-  Earth's curvature like the sea does).
+  Earth's curvature like the sea does). The relief is a function of where
+  the ray crosses the shore, so it makes a hilly skyline for a far coast;
+  near land seen from above should be flat (`hills_m: 0`), or its plateau
+  warps from ray to ray.
 - `ForegroundSpec` (`foreground:`): a vertical curtain along a polyline, from
   below the sea to a top profile: shore vegetation (a bumpy top, dense), a
   railing (posts and rails, see-through between them) or a wall.
@@ -33,6 +36,7 @@ import numpy as np
 
 from edge.config.schema import setting
 from edge.sim.scene import transmission
+from edge.sim.ships import hash01
 
 
 @dataclass(frozen=True)
@@ -60,6 +64,7 @@ class ForegroundSpec:
 
 
 CHUNK = 1 << 16
+BLOCK_M = 23.0  # land cover patches on a plateau (roofs, fields, stands of trees)
 RAIL_THICK_M = 0.06  # railing tube diameter
 RAIL_ROWS_M = (0.0, 0.5)  # rails at the top and half a metre below it
 RAILING_DEPTH_M = 1.1  # the railing stands this high; below it the quay edge (a wall)
@@ -186,8 +191,16 @@ class Land:
             sel = idx[closer]
             dist = t_hit[closer] * norm[sel]
             foot = dist * self.rad_per_px
-            depth = np.where(face[closer], at_shore[closer], (t_hit[closer] - te[closer]) * norm[sel])
-            albedo = spec.albedo * (1.0 + _texture(se[closer], depth, foot, spec.seed))
+            hit_xz = origin[[0, 2]] + t_hit[closer, None] * dirs[sel][:, [0, 2]]
+            # face: along the shore and up; plateau: world (x, z) with blocks (fields, roofs, trees)
+            p = np.where(face[closer], se[closer], hit_xz[:, 0])
+            q = np.where(face[closer], at_shore[closer], hit_xz[:, 1])
+            cells = [np.floor(hit_xz[:, i] / (BLOCK_M * scale)) for scale in (1.0, 0.31) for i in (0, 1)]
+            block = 0.9 * (hash01(spec.seed, *cells[:2]) - 0.5) + 0.5 * (hash01(spec.seed, *cells[2:]) - 0.5)
+            on_face = face[closer]
+            albedo = spec.albedo * (
+                1.0 + np.where(on_face, 1.0, 0.25) * _texture(p, q, foot, spec.seed) + np.where(on_face, 0.0, block)
+            )
             light = np.where(face[closer], self.face_light_dn, self.top_light_dn)
             best_t[sel] = t_hit[closer]
             radiance[sel] = self._hazed(albedo * light, dist)
@@ -204,7 +217,7 @@ class Land:
             below = spec.top_m - h  # depth below the top, m
             if spec.kind == "vegetation":
                 crown = 0.7 * (0.5 + 0.5 * _profile(sc[idx], spec.scale_m * 4.0, spec.seed, 2))
-                crown += 0.3 * np.abs(np.sin(np.pi * sc[idx] / spec.scale_m))  # one bump per crown
+                crown += 0.3 * np.sqrt(np.abs(np.sin(np.pi * sc[idx] / spec.scale_m)))  # one round crown each
                 solid = below + spec.variation_m * crown >= 0.0
             elif spec.kind == "railing":
                 post = np.abs((sc[idx] / spec.scale_m + 0.5) % 1.0 - 0.5) * spec.scale_m < RAIL_THICK_M

@@ -68,9 +68,18 @@ class BlockCache:
 
 
 def foam_radiance_dn(world: World, albedo: float) -> float:
-    """Radiance of level white foam lit by the sky and the sun (before haze), DN."""
-    sun = world.sun
-    return albedo * (sun.ambient_dn + sun.direct_dn * max(math.sin(math.radians(sun.elevation_deg)), 0.0))
+    """Radiance of level white foam (before haze), DN: a diffuse surface under the whole sky (the mean of
+    its horizon and zenith radiance) plus the direct sun on a level surface."""
+    sun, sky = world.sun, world.sky
+    sky_dn = 0.5 * (sky.horizon_dn + sky.zenith_dn)
+    return albedo * (sky_dn + sun.direct_dn * max(math.sin(math.radians(sun.elevation_deg)), 0.0))
+
+
+def _pinhole_offsets(rel: np.ndarray, step: np.ndarray, focal_px: float) -> np.ndarray:
+    """Image displacement (n, 2) of a small world step at camera-relative points (first order, pinhole,
+    axes of the world frame; the tilt of a real camera is a degree or two): the patch's size, not place."""
+    z = rel[:, 2:3]
+    return focal_px * (step[:, :2] / z - rel[:, :2] * step[:, 2:3] / z**2)
 
 
 def draw_patches(
@@ -93,10 +102,10 @@ def draw_patches(
     centre = np.stack([x, y, z], axis=-1)
     along = np.stack([np.sin(heading_rad), np.zeros_like(x), np.cos(heading_rad)], axis=-1)
     across = np.stack([np.cos(heading_rad), np.zeros_like(x), -np.sin(heading_rad)], axis=-1)
-    uv = rays.project(np.concatenate([centre, centre + along * half_along_m[:, None],
-                                      centre + across * half_across_m[:, None]]))
-    n = len(x)
-    c, a, b = uv[:n], uv[n : 2 * n] - uv[:n], uv[2 * n :] - uv[:n]
+    c = rays.project(centre)  # exact: the disparity of the patch is that of its centre
+    a, b = _pinhole_offsets(centre - rays.origin, along * half_along_m[:, None], rays.focal_px), _pinhole_offsets(
+        centre - rays.origin, across * half_across_m[:, None], rays.focal_px
+    )
     area_px = np.pi * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
     sigma_u = 0.5 * np.hypot(a[:, 0], b[:, 0])  # a uniform ellipse's spread (variance: semi-axis^2 / 4)
     sigma_v = 0.5 * np.hypot(a[:, 1], b[:, 1])
