@@ -63,7 +63,10 @@ class Background:
         horizon = (n_sea > 0) & (n_sea < 4)
         if land_corner is not None and land_centre is not None:  # land outlines: integrated like the horizon
             n_land = (
-                land_corner[:-1, :-1].astype(np.int8) + land_corner[:-1, 1:] + land_corner[1:, :-1] + land_corner[1:, 1:]
+                land_corner[:-1, :-1].astype(np.int8)
+                + land_corner[:-1, 1:]
+                + land_corner[1:, :-1]
+                + land_corner[1:, 1:]
             )
             horizon |= (n_land > 0) & (n_land < 4)
             n_sea = np.where(land_centre, 0, n_sea)  # the corners may all miss a thin post
@@ -92,9 +95,12 @@ class Background:
             self.basis[start : start + len(idx), :n] = amp * np.cos(phase)
             self.basis[start : start + len(idx), n : 2 * n] = amp * np.sin(phase)
         if world.swell is not None:
-            self.basis = np.concatenate([self.basis, self._swell_basis(d_u, d_v, hit_centre, t_centre)], axis=1)
+            swell = self._swell_basis(d_u, d_v, hit_centre, t_centre)
+            self.basis = np.concatenate([self.basis, swell], axis=1)
 
-    def _swell_basis(self, d_u: np.ndarray, d_v: np.ndarray, hit_centre: np.ndarray, t_centre: np.ndarray) -> np.ndarray:
+    def _swell_basis(
+        self, d_u: np.ndarray, d_v: np.ndarray, hit_centre: np.ndarray, t_centre: np.ndarray
+    ) -> np.ndarray:
         """Columns [cos | sin] of the swell components over the sea pixels, box-averaged like the waves."""
         swell = self.world.swell
         assert swell is not None
@@ -102,11 +108,13 @@ class Background:
         out = np.zeros((len(self.sea_index), 2 * m), np.float32)
         k_half = 0.5 * swell.k.T
         centre_dirs = np.concatenate([self.rays.lut, np.ones(self.rays.lut.shape[:-1] + (1,))], axis=-1)
-        centre_dirs = 0.25 * (centre_dirs[:-1, :-1] + centre_dirs[:-1, 1:] + centre_dirs[1:, :-1] + centre_dirs[1:, 1:])
+        c = centre_dirs
+        centre_dirs = 0.25 * (c[:-1, :-1] + c[:-1, 1:] + c[1:, :-1] + c[1:, 1:])
         for start in range(0, len(self.sea_index), 1 << 18):
             idx = self.sea_index[start : start + (1 << 18)]
             amp = _sinc(d_u.reshape(-1, 2)[idx] @ k_half) * _sinc(d_v.reshape(-1, 2)[idx] @ k_half)
-            amp *= self.world.swell_gain(self.rays.origin, centre_dirs.reshape(-1, 3)[idx], t_centre.reshape(-1)[idx])
+            dirs, t_hit = centre_dirs.reshape(-1, 3)[idx], t_centre.reshape(-1)[idx]
+            amp *= self.world.swell_gain(self.rays.origin, dirs, t_hit)
             phase = hit_centre.reshape(-1, 3)[idx][:, [0, 2]] @ swell.k.T + swell.phase
             out[start : start + len(idx), :m] = amp * np.cos(phase)
             out[start : start + len(idx), m:] = amp * np.sin(phase)

@@ -38,7 +38,9 @@ class WhitecapSpec:
         None, min=0.0, max=0.5, doc="white fraction of the sea; null: Monahan's for the sea_state's wind"
     )
     size_m: float = setting(2.5, positive=True, max=50.0, doc="median crest length across the wind, m")
-    life_s: tuple[float, float] = setting((1.5, 5.0), positive=True, doc="shortest and longest foam decay time")
+    life_s: tuple[float, float] = setting(
+        (1.5, 5.0), positive=True, doc="shortest and longest foam decay time"
+    )
     albedo: float = setting(0.75, min=0.0, max=1.0, doc="albedo of fresh foam")
     min_range_m: float = setting(40.0, positive=True, doc="whitecaps lie beyond this range, m")
     max_range_m: float = setting(3500.0, positive=True, doc="and within this one, m (beyond: sub-pixel)")
@@ -69,7 +71,9 @@ class Whitecaps:
 
     ASPECT = 0.4  # width along the wind over length across it
 
-    def __init__(self, spec: WhitecapSpec, sea_state: int, wind_from_deg: float, half_bearing_rad: float, seed: int):
+    def __init__(
+        self, spec: WhitecapSpec, sea_state: int, wind_from_deg: float, half_bearing_rad: float, seed: int
+    ):
         self.spec, self.seed = spec, seed + spec.seed
         self.coverage = spec.coverage if spec.coverage is not None else whitecap_fraction(wind_mps(sea_state))
         self.wedge = Wedge(spec.min_range_m, spec.max_range_m, half_bearing_rad)
@@ -101,8 +105,14 @@ class Whitecaps:
         live = cover > 0.0
         grow = growth(age[live], ev["life"][live])
         heading = self.across_rad + ev["skew"][live]
-        return (ev["x"][live], ev["z"][live], ev["half_a"][live] * grow, ev["half_b"][live] * grow, heading,
-                cover[live])
+        return (
+            ev["x"][live],
+            ev["z"][live],
+            ev["half_a"][live] * grow,
+            ev["half_b"][live] * grow,
+            heading,
+            cover[live],
+        )
 
     def white_fraction(self, t_s: float) -> float:
         """White area over the wedge's area at t_s (the quantity `coverage` is the mean of), a check."""

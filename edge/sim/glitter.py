@@ -44,8 +44,12 @@ class GlitterSpec:
     rate_per_m2_s: float = setting(
         0.0, min=0.0, max=10.0, doc="sparkles born per m^2 per s at the glitter's centre (0: none)"
     )
-    glow_dn: float = setting(0.0, min=0.0, max=2000.0, doc="mean glitter radiance at its centre, DN (0: none)")
-    wind_mps: float | None = setting(None, min=0.0, max=40.0, doc="wind for the facet slopes; null: the sea_state's")
+    glow_dn: float = setting(
+        0.0, min=0.0, max=2000.0, doc="mean glitter radiance at its centre, DN (0: none)"
+    )
+    wind_mps: float | None = setting(
+        None, min=0.0, max=40.0, doc="wind for the facet slopes; null: the sea_state's"
+    )
     peak_dn: float = setting(500.0, positive=True, doc="peak radiance of a typical sparkle, DN (saturates)")
     duration_s: tuple[float, float] = setting((0.03, 0.15), positive=True, doc="shortest and longest sparkle")
     cone_mrad: float = setting(6.0, positive=True, max=100.0, doc="spread of a facet's reflected beam, mrad")
@@ -68,8 +72,15 @@ def glitter_sigma2(spec: GlitterSpec, sea_state: int | None) -> float:
 class Sparkles:
     """The sparkle events of one scenario and seed, drawn in either view."""
 
-    def __init__(self, spec: GlitterSpec, world: World, sigma2: float, half_bearing_rad: float,
-                 baseline_m: float, seed: int) -> None:
+    def __init__(
+        self,
+        spec: GlitterSpec,
+        world: World,
+        sigma2: float,
+        half_bearing_rad: float,
+        baseline_m: float,
+        seed: int,
+    ) -> None:
         self.spec, self.world, self.sigma2 = spec, world, sigma2
         self.seed = seed + spec.seed
         self.baseline_m = baseline_m
@@ -119,7 +130,13 @@ class Sparkles:
         beam = self.spec.cone_mrad * 1e-3 * dist
         seen = np.exp(-0.5 * ((rays.origin[0] - ev["aim"]) / beam) ** 2)
         energy = (
-            self.spec.peak_dn * 2.0 * math.pi * SPARKLE_SIGMA_PX**2 * ev["gain"] * ev["flash"] * seen
+            self.spec.peak_dn
+            * 2.0
+            * math.pi
+            * SPARKLE_SIGMA_PX**2
+            * ev["gain"]
+            * ev["flash"]
+            * seen
             * transmission(dist, self.world.atmosphere.visibility_m)
         )
         uv = rays.project(pts)

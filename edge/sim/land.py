@@ -54,7 +54,9 @@ class LandSpec:
 
 @dataclass(frozen=True, kw_only=True)
 class ForegroundSpec:
-    line_m: tuple[tuple[float, float], ...] = setting(min_items=2, doc="world (x, z) vertices of the curtain, m")
+    line_m: tuple[tuple[float, float], ...] = setting(
+        min_items=2, doc="world (x, z) vertices of the curtain, m"
+    )
     kind: Literal["vegetation", "railing", "wall"] = setting("vegetation", doc="what stands there")
     top_m: float = setting(doc="height of its top above the sea (vegetation: of the lowest crowns), m")
     variation_m: float = setting(0.0, min=0.0, doc="vegetation: crowns rise up to this much above top_m")
@@ -134,7 +136,9 @@ class Land:
         sun = world.sun
         sin_el = max(math.sin(math.radians(sun.elevation_deg)), 0.0)
         self.top_light_dn = sun.ambient_dn + sun.direct_dn * sin_el  # a level surface
-        self.face_light_dn = 0.5 * sun.ambient_dn + 0.5 * sun.direct_dn * math.cos(math.radians(sun.elevation_deg))
+        self.face_light_dn = 0.5 * sun.ambient_dn + 0.5 * sun.direct_dn * math.cos(
+            math.radians(sun.elevation_deg)
+        )
 
     def _height_above_sea(self, origin: np.ndarray, dirs: np.ndarray, t: np.ndarray) -> np.ndarray:
         pts = origin + t[:, None] * dirs
@@ -159,7 +163,9 @@ class Land:
         dirs = np.asarray(dirs, np.float64).reshape(-1, 3)
         t, radiance = np.empty(len(dirs)), np.empty(len(dirs))
         for start in range(0, len(dirs), CHUNK):  # bounded temporaries (rays x segments)
-            t[start : start + CHUNK], radiance[start : start + CHUNK] = self._hit(origin, dirs[start : start + CHUNK])
+            t[start : start + CHUNK], radiance[start : start + CHUNK] = self._hit(
+                origin, dirs[start : start + CHUNK]
+            )
         return t, radiance
 
     def _hit(self, origin: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -178,7 +184,9 @@ class Land:
                 continue
             idx = np.flatnonzero(live)
             te, se, to = t_enter[idx], s_enter[idx], t_out[idx]
-            height = np.maximum(spec.height_m + spec.hills_m * _profile(se, spec.hill_scale_m, spec.seed, 1), 0.5)
+            height = np.maximum(
+                spec.height_m + spec.hills_m * _profile(se, spec.hill_scale_m, spec.seed, 1), 0.5
+            )
             d = dirs[idx]
             at_shore = self._height_above_sea(origin, d, te)
             face = at_shore <= height
@@ -199,12 +207,14 @@ class Land:
             block = 0.9 * (hash01(spec.seed, *cells[:2]) - 0.5) + 0.5 * (hash01(spec.seed, *cells[2:]) - 0.5)
             on_face = face[closer]
             albedo = spec.albedo * (
-                1.0 + np.where(on_face, 1.0, 0.25) * _texture(p, q, foot, spec.seed) + np.where(on_face, 0.0, block)
+                1.0
+                + np.where(on_face, 1.0, 0.25) * _texture(p, q, foot, spec.seed)
+                + np.where(on_face, 0.0, block)
             )
             light = np.where(face[closer], self.face_light_dn, self.top_light_dn)
             best_t[sel] = t_hit[closer]
             radiance[sel] = self._hazed(albedo * light, dist)
-        for spec, (start, vec) in zip(self.foreground, self._fg_geo, strict=True):
+        for fg, (start, vec) in zip(self.foreground, self._fg_geo, strict=True):
             t, s, _ = _crossings(origin, dirs, start, vec)
             k = np.argmin(t, axis=1)
             rows = np.arange(n)
@@ -214,13 +224,13 @@ class Land:
             if idx.size == 0:
                 continue
             h = self._height_above_sea(origin, dirs[idx], tc[idx])
-            below = spec.top_m - h  # depth below the top, m
-            if spec.kind == "vegetation":
-                crown = 0.7 * (0.5 + 0.5 * _profile(sc[idx], spec.scale_m * 4.0, spec.seed, 2))
-                crown += 0.3 * np.sqrt(np.abs(np.sin(np.pi * sc[idx] / spec.scale_m)))  # one round crown each
-                solid = below + spec.variation_m * crown >= 0.0
-            elif spec.kind == "railing":
-                post = np.abs((sc[idx] / spec.scale_m + 0.5) % 1.0 - 0.5) * spec.scale_m < RAIL_THICK_M
+            below = fg.top_m - h  # depth below the top, m
+            if fg.kind == "vegetation":
+                crown = 0.7 * (0.5 + 0.5 * _profile(sc[idx], fg.scale_m * 4.0, fg.seed, 2))
+                crown += 0.3 * np.sqrt(np.abs(np.sin(np.pi * sc[idx] / fg.scale_m)))  # one round crown each
+                solid = below + fg.variation_m * crown >= 0.0
+            elif fg.kind == "railing":
+                post = np.abs((sc[idx] / fg.scale_m + 0.5) % 1.0 - 0.5) * fg.scale_m < RAIL_THICK_M
                 rail = np.zeros(idx.size, bool)
                 for row in RAIL_ROWS_M:
                     rail |= np.abs(below - row - RAIL_THICK_M / 2) < RAIL_THICK_M / 2
@@ -232,7 +242,7 @@ class Land:
             sel = idx[solid]
             dist = tc[sel] * norm[sel]
             foot = dist * self.rad_per_px
-            albedo = spec.albedo * (1.0 + 2.0 * _texture(sc[sel], h[solid], foot, spec.seed))
+            albedo = fg.albedo * (1.0 + 2.0 * _texture(sc[sel], h[solid], foot, fg.seed))
             best_t[sel] = tc[sel]
             radiance[sel] = self._hazed(np.clip(albedo, 0.0, 1.0) * self.face_light_dn, dist)
         return best_t, radiance

@@ -240,7 +240,7 @@ def scenario_from_dict(data: Any, file: str | Path, name: str | None = None) -> 
         ("whitecaps.max_range_m", (spec.whitecaps.min_range_m, spec.whitecaps.max_range_m)),
     ):
         if lo > hi:
-            raise ConfigError(file, key, "[shortest, longest] in that order (or more than min_range_m)", [lo, hi])
+            raise ConfigError(file, key, "[shortest, longest] (a range above min_range_m)", [lo, hi])
     mmsis = [s.ais.mmsi for s in spec.ships if s.ais is not None]
     for i, mmsi in enumerate(mmsis):
         if mmsi in mmsis[:i]:

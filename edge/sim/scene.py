@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -196,7 +197,7 @@ class World:
         self.sun_dir = sun_direction(sun)
         self.swell = SwellField.from_spec(swell) if swell is not None and swell.height_m > 0.0 else None
         self.glow_dn, self.glow_sigma2 = float(glow_dn), float(glow_sigma2)
-        self.land = None  # edge.sim.land.Land: set after construction (it needs the camera's pixel scale)
+        self.land: Any = None  # edge.sim.land.Land, set after construction (needs the pixel scale)
 
     def sea_hit(self, origin: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """Ray parameter t of the first sea hit along origin + t * dirs; inf where the ray sees sky."""

@@ -58,8 +58,8 @@ def slope_variance(wind: float) -> float:
 
 
 def slope_pdf_ratio(tan_tilt: np.ndarray, sigma2: float) -> np.ndarray:
-    """Probability density of a facet tilted by tan_tilt relative to a flat one (isotropic Gaussian slopes)."""
-    return np.exp(-np.asarray(tan_tilt) ** 2 / sigma2)
+    """Density of facets tilted by tan_tilt relative to level ones (isotropic Gaussian slopes)."""
+    return np.exp(-(np.asarray(tan_tilt) ** 2) / sigma2)
 
 
 def _check(state: int) -> int:

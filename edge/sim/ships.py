@@ -264,13 +264,21 @@ def _rib(length: float, seed: int) -> ShipModel:
     beam, fb = length / 2.6, min(0.07 * length, 0.9)
     console_top = fb + 1.1
     parts = (
-        Part("tubes", hull(length, beam, fb, 0.25 * length), Style(0.10, noise=0.06, band_top_m=0.3 * fb, band_albedo=0.06)),
+        Part(
+            "tubes",
+            hull(length, beam, fb, 0.25 * length),
+            Style(0.10, noise=0.06, band_top_m=0.3 * fb, band_albedo=0.06),
+        ),
         Part(
             "console",
             box(-0.12 * length, 0.02 * length, -0.16 * beam, 0.16 * beam, fb, console_top),
             Style(0.55, (math.inf, 0.45, math.inf), 0.3, noise=0.05),
         ),
-        Part("crew", box(-0.22 * length, -0.14 * length, -0.1 * beam, 0.1 * beam, fb, console_top + 0.5), Style(0.25)),
+        Part(
+            "crew",
+            box(-0.22 * length, -0.14 * length, -0.1 * beam, 0.1 * beam, fb, console_top + 0.5),
+            Style(0.25),
+        ),
     )
     return ShipModel("rib", length, beam, parts, np.array([-0.05 * length, 0.0, console_top]), 5.0, seed)
 
@@ -281,7 +289,7 @@ def _fishing(length: float, seed: int) -> ShipModel:
     top = fb + 0.17 * length
     parts = (
         Part("hull", hull(length, beam, fb, 0.22 * length),
-             Style(0.09, (math.inf, math.inf, math.inf), 0.0, band_top_m=0.15 * fb, band_albedo=0.25, noise=0.05)),
+             Style(0.09, band_top_m=0.15 * fb, band_albedo=0.25, noise=0.05)),
         Part(
             "wheelhouse",
             box(0.05 * length, 0.28 * length, -0.32 * beam, 0.32 * beam, fb, top),

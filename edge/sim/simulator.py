@@ -87,11 +87,14 @@ class Simulation:
         half_bearing = math.atan(self.rig.width / 2.0 / self.rig.focal_px()) + math.radians(5.0)
         self.whitecaps: Whitecaps | None = None
         if spec.sea_state is not None or spec.whitecaps.coverage is not None:
-            caps = Whitecaps(spec.whitecaps, spec.sea_state or 0, spec.sea.wind_from_deg, half_bearing, self.seed)
+            state, wind_from = spec.sea_state or 0, spec.sea.wind_from_deg
+            caps = Whitecaps(spec.whitecaps, state, wind_from, half_bearing, self.seed)
             self.whitecaps = caps if caps.coverage > 0.0 else None
         self.sparkles: Sparkles | None = None
         if spec.glitter.rate_per_m2_s > 0.0 and np.any(self.world.sun_dir):
-            self.sparkles = Sparkles(spec.glitter, self.world, sigma2, half_bearing, self.rig.baseline_m, self.seed)
+            self.sparkles = Sparkles(
+                spec.glitter, self.world, sigma2, half_bearing, self.rig.baseline_m, self.seed
+            )
         self.wakes = [(i, s.wake) for i, s in enumerate(spec.ships) if s.wake > 0.0]
         self.foam_dn = foam_radiance_dn(self.world, spec.whitecaps.albedo)
 

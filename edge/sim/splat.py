@@ -31,7 +31,12 @@ def splat(
     """Add the features to `image` (float, modified in place); those outside the image are dropped."""
     h, w = image.shape
     ok = np.isfinite(u) & np.isfinite(v) & (energy != 0.0)
-    ok &= (u > -4.0 * sigma_u - 1) & (u < w + 4.0 * sigma_u) & (v > -4.0 * sigma_v - 1) & (v < h + 4.0 * sigma_v)
+    ok &= (
+        (u > -4.0 * sigma_u - 1)
+        & (u < w + 4.0 * sigma_u)
+        & (v > -4.0 * sigma_v - 1)
+        & (v < h + 4.0 * sigma_v)
+    )
     n_u = np.where(ok, np.maximum(np.ceil(4.0 * sigma_u / STEP_PX), 1), 0).astype(np.int64)
     n_v = np.where(ok, np.maximum(np.ceil(4.0 * sigma_v / STEP_PX), 1), 0).astype(np.int64)
     grid = ok & (n_u * n_v <= MAX_POINTS)
@@ -46,8 +51,12 @@ def splat(
         wgt = np.exp(-0.5 * (qu**2 + qv**2))
         total = np.zeros(len(u))
         np.add.at(total, owner, wgt)
-        _bilinear(image, u[owner] + qu * sigma_u[owner], v[owner] + qv * sigma_v[owner],
-                  energy[owner] * wgt / total[owner])
+        _bilinear(
+            image,
+            u[owner] + qu * sigma_u[owner],
+            v[owner] + qv * sigma_v[owner],
+            energy[owner] * wgt / total[owner],
+        )
     for i in np.flatnonzero(ok & ~grid):
         _patch(image, float(u[i]), float(v[i]), float(energy[i]), float(sigma_u[i]), float(sigma_v[i]))
 
@@ -57,7 +66,12 @@ def _bilinear(image: np.ndarray, u: np.ndarray, v: np.ndarray, energy: np.ndarra
     c0, r0 = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
     fu, fv = u - c0, v - r0
     flat = image.reshape(-1)
-    for dr, dc, wgt in ((0, 0, (1 - fu) * (1 - fv)), (0, 1, fu * (1 - fv)), (1, 0, (1 - fu) * fv), (1, 1, fu * fv)):
+    for dr, dc, wgt in (
+        (0, 0, (1 - fu) * (1 - fv)),
+        (0, 1, fu * (1 - fv)),
+        (1, 0, (1 - fu) * fv),
+        (1, 1, fu * fv),
+    ):
         r, c = r0 + dr, c0 + dc
         inside = (r >= 0) & (r < h) & (c >= 0) & (c < w)
         np.add.at(flat, r[inside] * w + c[inside], (energy * wgt)[inside].astype(image.dtype))
@@ -75,4 +89,6 @@ def _patch(image: np.ndarray, u: float, v: float, energy: float, su: float, sv: 
     c0, c1 = max(int(u) - ru, 0), min(int(u) + ru + 1, w)
     if r0 >= r1 or c0 >= c1:
         return
-    image[r0:r1, c0:c1] += (energy * np.outer(_weights(r0, r1, v, sv), _weights(c0, c1, u, su))).astype(image.dtype)
+    image[r0:r1, c0:c1] += (energy * np.outer(_weights(r0, r1, v, sv), _weights(c0, c1, u, su))).astype(
+        image.dtype
+    )

@@ -30,7 +30,7 @@ from edge.sim.splat import splat
 
 @dataclass(frozen=True)
 class Wedge:
-    """The sea area events are drawn over: ranges (m) and bearings (rad, from +Z toward +X) from the origin."""
+    """The sea area events are drawn over: ranges (m), bearings (rad, from +Z toward +X) from the origin."""
 
     min_range_m: float
     max_range_m: float
@@ -103,8 +103,9 @@ def draw_patches(
     along = np.stack([np.sin(heading_rad), np.zeros_like(x), np.cos(heading_rad)], axis=-1)
     across = np.stack([np.cos(heading_rad), np.zeros_like(x), -np.sin(heading_rad)], axis=-1)
     c = rays.project(centre)  # exact: the disparity of the patch is that of its centre
-    a, b = _pinhole_offsets(centre - rays.origin, along * half_along_m[:, None], rays.focal_px), _pinhole_offsets(
-        centre - rays.origin, across * half_across_m[:, None], rays.focal_px
+    a, b = (
+        _pinhole_offsets(centre - rays.origin, along * half_along_m[:, None], rays.focal_px),
+        _pinhole_offsets(centre - rays.origin, across * half_across_m[:, None], rays.focal_px),
     )
     area_px = np.pi * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
     sigma_u = 0.5 * np.hypot(a[:, 0], b[:, 0])  # a uniform ellipse's spread (variance: semi-axis^2 / 4)
@@ -112,7 +113,9 @@ def draw_patches(
     dirs = centre - rays.origin
     dirs = dirs / dirs[:, 2:3]  # the renderer's ray form (x, y, 1)
     t_hit = world.sea_hit(rays.origin, dirs)
-    t_hit = np.where(np.isfinite(t_hit), t_hit, np.linalg.norm(centre - rays.origin, axis=1) / np.linalg.norm(dirs, axis=1))
+    t_hit = np.where(
+        np.isfinite(t_hit), t_hit, np.linalg.norm(centre - rays.origin, axis=1) / np.linalg.norm(dirs, axis=1)
+    )
     _, sea_scale, _ = world.sea_static_dn(rays.origin, dirs, t_hit)  # transmission * sea radiance
     trans = transmission(t_hit * np.linalg.norm(dirs, axis=1), world.atmosphere.visibility_m)
     contrast = trans * foam_dn - sea_scale
