@@ -45,8 +45,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from edge.alerts.config import AlertsConfig
 from edge.appliance.health import HealthSnapshot, HealthState, Status
+from edge.config.alerts import AlertsConfig
 from edge.core.cpa import pair_cpa
 from edge.fix import ShipFix, TrackStatus
 

@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from edge.encode.targets import TargetNumbers
+from edge.encode.target_numbers import TargetNumbers
 from edge.outputs.fanout import Outputs
 from edge.outputs.nmea_serial import NmeaSerialOutput
 from edge.outputs.nmea_udp import NmeaUdpOutput

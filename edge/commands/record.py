@@ -32,7 +32,7 @@ from edge.config.app import load_config
 from edge.errors import EX_CONFIG
 from edge.recording.capture import SIGNALLED, SOURCE_FAILED, WRITE_FAILED, WRONG_SIZE, record
 from edge.recording.format import RecordingWriter, build_meta
-from edge.sim.batch import ProgressBar
+from edge.sim.render_recording import ProgressBar
 
 EX_UNAVAILABLE, EX_CANTCREAT, EX_IOERR = 69, 73, 74
 PROG = "mast-stereo record"

@@ -25,8 +25,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
-from edge.alerts.config import AlertsConfig
 from edge.config.ais import AisConfig
+from edge.config.alerts import AlertsConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
@@ -299,7 +299,7 @@ class AppConfig:
     outputs: OutputsConfig = setting(default_factory=OutputsConfig)
     health: HealthConfig = setting(default_factory=HealthConfig)
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
-    alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # issue 18 (edge/alerts/config.py)
+    alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # issue 18 (edge/config/alerts.py)
     ais: AisConfig | None = setting(None, doc="AIS input and association (issue 17); null: off")
 
     @property

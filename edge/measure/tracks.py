@@ -51,8 +51,8 @@ from edge.measure.anchor import reference_points, ship_window, spanning_width
 from edge.measure.batch import answer_all, step_points, stereo_request
 from edge.measure.boxes import contains, inside, overlaps
 from edge.measure.detect import sea_range_at
+from edge.measure.filter_designs import Designs
 from edge.measure.point import TrackPoint
-from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 
 MIN_OVERLAP = 0.2  # association gate (`boxes.overlaps`), or the track's point inside the detection's box

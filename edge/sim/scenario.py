@@ -25,11 +25,11 @@ from edge.sim.foam import WhitecapSpec
 from edge.sim.glitter import GlitterSpec
 from edge.sim.imaging import ImagingSpec
 from edge.sim.land import ForegroundSpec, LandSpec
+from edge.sim.routes import KNOT_MPS, Route
 from edge.sim.scene import Atmosphere, Sea, Sky, Sun, Swell
 from edge.sim.seastate import MAX_STATE
 from edge.sim.shipdetail import periodic_detail
 from edge.sim.ships import KINDS, ShipModel
-from edge.sim.tracks import KNOT_MPS, Track
 
 SCENARIO_DIR = Path(__file__).resolve().parents[2] / "config" / "scenarios"
 
@@ -209,7 +209,7 @@ def build_ships(spec: ScenarioSpec, file: Any) -> list:
             speeds = [v * KNOT_MPS for v in t.speed_kn]
             if len(speeds) not in (1, len(t.waypoints_m) - 1):
                 raise ValueError(f"give one speed or one per leg ({len(t.waypoints_m) - 1})")
-            track = Track(t.waypoints_m, speeds, radius, t.start_s, list(t.holds_s) or None)
+            track = Route(t.waypoints_m, speeds, radius, t.start_s, list(t.holds_s) or None)
         except ValueError as exc:
             raise ConfigError(file, f"{key}.track", f"a valid track ({exc})") from None
         ships.append(Ship(s.id, model, track, s.motion))

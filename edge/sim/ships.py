@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from edge.sim.tracks import Track
+from edge.sim.routes import Route
 
 KINDS = ("freighter", "ferry", "coaster", "tug", "boat", "rib", "fishing")
 DRAFT_M = 1.0  # hull drawn this far below the waterline (the sea hides it; no gap at the waterline)
@@ -398,7 +398,7 @@ class Ship:
 
     ship_id: int
     model: ShipModel
-    track: Track
+    track: Route
     motion: float = 1.0  # scale of roll/pitch/heave; 0 = a flat sea
 
     def pose(self, t_s: float, surface_y) -> tuple[np.ndarray, np.ndarray]:

@@ -178,7 +178,7 @@ def section_fixed(args: argparse.Namespace, out: list[str]) -> None:
 
 
 def section_speed(args: argparse.Namespace, out: list[str]) -> None:
-    from edge.core.refpoint import track_point
+    from edge.core.refpoint import follow_point
     from edge.sim.synth import make_scene, render_pair
     scene = make_scene(np.random.default_rng(7), 40, 290, "hull")
     pair = render_pair(scene, np.random.default_rng(8), 32 * 70 + 5, height_px=31, width_px=200)
@@ -208,7 +208,7 @@ def section_speed(args: argparse.Namespace, out: list[str]) -> None:
     bw = ButterworthQ(0.5, 10)
     times["Kalman update (Q24)"] = timed(lambda: kal.update(70.2))
     times["Butterworth update (Q14)"] = timed(lambda: bw.update(17971))
-    times["track_point (reference point, 2-D)"] = timed(lambda: track_point(left, left, 100.3, 15.2))
+    times["follow_point (reference point, 2-D)"] = timed(lambda: follow_point(left, left, 100.3, 15.2))
     rows = [[name, f"{t:.1f}", f"{t / base:.2f}" if name.startswith("match") else ""]
             for name, t in times.items()]
     out.append("Speed: 15x15 window, 128 px search (d = 0..128), one thread, CPU time, best of 3 x "

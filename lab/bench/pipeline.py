@@ -102,7 +102,7 @@ def render(size: int, count: int, frames: int, cache: Path) -> Path:
     out = cache / f"{size}-{count}"
     if (out / "frames.csv").is_file():
         return out
-    from edge.sim.batch import default_jobs, write_recording
+    from edge.sim.render_recording import default_jobs, write_recording
     from edge.sim.scenario import scenario_from_dict
     from edge.sim.simulator import Simulation
 

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from edge.recording.format import write_png
-from edge.sim.batch import default_jobs, write_recording
+from edge.sim.render_recording import default_jobs, write_recording
 from edge.sim.scenario import load_scenario
 from edge.sim.simulator import Simulation
 

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import argparse
 
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertManager
 from edge.alerts.port import PortAlerts
+from edge.config.alerts import AlertsConfig
 from edge.fix import ShipFix, TrackStatus
 from edge.outputs.nmea_serial import serial_bytes_per_s
 from edge.outputs.schedule import NmeaSchedule, NmeaScheduler

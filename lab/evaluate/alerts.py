@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertId, AlertManager
+from edge.config.alerts import AlertsConfig
 from edge.core.cpa import pair_cpa
 from edge.fix import ShipFix, TrackStatus
 

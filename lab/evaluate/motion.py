@@ -1,7 +1,7 @@
 """SOG and COG against the truth's own speed and course after 1 and 3 min of steady state (IMO
 MSC.192(79) table 3), for tools/evaluate.
 
-Truth motion comes from the scenario's scripted tracks (`edge.sim.tracks.Track`: the ship's path,
+Truth motion comes from the scenario's scripted tracks (`edge.sim.routes.Route`: the ship's path,
 not the bridge point, which sways with roll and pitch): velocity by central differences over
 TRUTH_DT_S, turn rate and acceleration over the same. A ship is manoeuvring while its turn rate
 exceeds STEADY_TURN_DEG_S or its acceleration STEADY_ACCEL_MPS2; a fix's *steady time* is the time
@@ -25,8 +25,8 @@ from edge.config.schema import load_yaml
 from edge.core.geo import speed_course, world_to_latlon
 from edge.core.site import Site
 from edge.fix import ShipFix
+from edge.sim.routes import Route
 from edge.sim.scenario import build_ships, scenario_from_dict, scenario_path
-from edge.sim.tracks import Track
 
 TRUTH_DT_S = 0.5  # half-span of the central differences of the truth track
 STEADY_TURN_DEG_S = 0.2  # turning faster than this is a manoeuvre
@@ -55,7 +55,7 @@ class TruthMotion:
     manoeuvring: bool
 
 
-def truth_tracks(meta: dict) -> dict[int, Track] | None:
+def truth_tracks(meta: dict) -> dict[int, Route] | None:
     """The scenario's ship tracks by ship id (NAME@WIDTH is NAME with the recording's calibration);
     None when the recording names no scenario that can be loaded."""
     name = meta.get("scenario")
@@ -72,7 +72,7 @@ def truth_tracks(meta: dict) -> dict[int, Track] | None:
     return {s.ship_id: s.track for s in build_ships(sc.spec, path)}
 
 
-def truth_motion(track: Track, t_s: float, site: Site) -> TruthMotion:
+def truth_motion(track: Route, t_s: float, site: Site) -> TruthMotion:
     """Speed (kn) and course (true deg at the ship) of a scripted track at t_s, and whether it
     manoeuvres then."""
     (x0, z0, h0), (x1, z1, h1) = track.pose(t_s - TRUTH_DT_S), track.pose(t_s + TRUTH_DT_S)
@@ -88,7 +88,7 @@ def truth_motion(track: Track, t_s: float, site: Site) -> TruthMotion:
                        math.degrees(turn) > STEADY_TURN_DEG_S or accel > STEADY_ACCEL_MPS2)
 
 
-def steady_since_s(track: Track, times_s: np.ndarray, site: Site) -> np.ndarray:
+def steady_since_s(track: Route, times_s: np.ndarray, site: Site) -> np.ndarray:
     """For each of the sorted times, when the ship last manoeuvred (-inf: not since the first time)."""
     out = np.full(len(times_s), -math.inf)
     last = -math.inf

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from edge.errors import EX_CONFIG
 from edge.replay import replay
-from edge.sim.batch import write_recording
+from edge.sim.render_recording import write_recording
 from edge.sim.scenario import load_scenario
 from edge.sim.simulator import Simulation
 from lab.faults.matrix import Row

@@ -36,7 +36,7 @@ from drivers.camera.base import FramePair
 from drivers.notify import SystemdNotifier
 from edge.appliance.daemon import Appliance
 from edge.config.app import load_config
-from edge.encode.targets import TargetNumbers
+from edge.encode.target_numbers import TargetNumbers
 from edge.fix import ShipFix, TrackStatus
 from edge.outputs.nmea_serial import NmeaSerialOutput
 

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from edge.sim.batch import write_recording
+from edge.sim.render_recording import write_recording
 from edge.sim.scenario import Scenario, scenario_from_dict
 from edge.sim.simulator import Simulation
 

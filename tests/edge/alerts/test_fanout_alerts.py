@@ -9,9 +9,9 @@ import time
 
 from helpers import free_port
 
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertManager
 from edge.appliance.health import HealthMonitor, Status, standard_stages
+from edge.config.alerts import AlertsConfig
 from edge.config.app import ModbusConfig, ModbusTcp, NmeaPort, OutputsConfig
 from edge.fix import ShipFix, TrackStatus
 from edge.outputs.fanout import Outputs, output_stages

@@ -8,9 +8,9 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertId, AlertManager, AlertState
 from edge.appliance.health import HealthSnapshot, HealthState, StageHealth, Status
+from edge.config.alerts import AlertsConfig
 from edge.fix import ShipFix, TrackStatus
 
 T0_NS = 1_790_000_000_000_000_000

@@ -18,7 +18,7 @@ from edge.appliance.state import (
     parse_state,
     write_atomic,
 )
-from edge.encode.targets import TargetNumbers
+from edge.encode.target_numbers import TargetNumbers
 
 
 def allocator() -> TargetNumbers:

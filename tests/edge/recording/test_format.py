@@ -21,7 +21,7 @@ from edge.cli import main
 from edge.config.calibration import calibration_from_dict
 from edge.errors import EX_CONFIG
 from edge.recording.format import RecordingWriter, build_meta, read_truth
-from edge.sim.batch import write_recording
+from edge.sim.render_recording import write_recording
 from edge.sim.scenario import scenario_from_dict
 from edge.sim.simulator import Simulation
 

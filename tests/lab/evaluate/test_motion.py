@@ -11,7 +11,7 @@ import pytest
 import lab.evaluate.motion as mo
 from edge.core.site import Site
 from edge.fix import ShipFix, TrackStatus
-from edge.sim.tracks import KNOT_MPS, Track
+from edge.sim.routes import KNOT_MPS, Route
 from lab.evaluate.metrics import Matched
 
 SITE = Site(34.63, 135.02, 25.0, 0.0)  # heading north: world +Z is north, +X east
@@ -20,7 +20,7 @@ SITE = Site(34.63, 135.02, 25.0, 0.0)  # heading north: world +Z is north, +X ea
 def test_truth_motion_of_a_turning_track() -> None:
     """10 kn east, a 90 deg turn to the north on a 100 m radius (at 3 deg/s), then north."""
     v = 10 * KNOT_MPS
-    track = Track([(-1000.0, 2000.0), (0.0, 2000.0), (0.0, 3000.0)], [v, v], 100.0)
+    track = Route([(-1000.0, 2000.0), (0.0, 2000.0), (0.0, 3000.0)], [v, v], 100.0)
     straight = mo.truth_motion(track, 30.0, SITE)
     assert straight.speed_kn == pytest.approx(10.0, abs=1e-6)
     assert straight.course_deg == pytest.approx(90.0, abs=0.05)  # east (meridian convergence ~0.01 deg)
@@ -38,7 +38,7 @@ def test_windows_pass_and_fail_by_error_and_share(monkeypatch: pytest.MonkeyPatc
     """A straight 3.4 kn ship: fixes with 0.2 kn and 2 deg errors pass both windows; withholding the
     course on a tenth of them fails them (share below 95 %)."""
     v = 3.4 * KNOT_MPS
-    track = Track([(0.0, 3000.0), (0.0, 5000.0)], [v], 100.0)
+    track = Route([(0.0, 3000.0), (0.0, 5000.0)], [v], 100.0)
     monkeypatch.setattr(mo, "truth_tracks", lambda meta: {1: track})
 
     def run(withhold_every: int) -> list[dict]:

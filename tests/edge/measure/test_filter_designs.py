@@ -8,7 +8,7 @@ import math
 import pytest
 
 from edge.core.kalman_design import correlated_noise_gain
-from edge.measure.ranging import MATCH_ERROR_CORR_S, Designs
+from edge.measure.filter_designs import MATCH_ERROR_CORR_S, Designs
 from edge.measure.settings import PointSettings
 
 

@@ -43,7 +43,7 @@ def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-class Track:
+class Route:
     """Pose (x_m, z_m, heading_rad) of a ship as a function of time."""
 
     def __init__(

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.sim.tracks import Track
+from edge.sim.routes import Route
 
 coord = st.floats(-3000.0, 3000.0)
 waypoints = st.lists(st.tuples(coord, coord), min_size=2, max_size=5).filter(
@@ -17,7 +17,7 @@ waypoints = st.lists(st.tuples(coord, coord), min_size=2, max_size=5).filter(
 )
 
 
-def _samples(track: Track, n: int = 3000):
+def _samples(track: Route, n: int = 3000):
     t = np.linspace(track.start_s - 5.0, track.end_s + 5.0, n)
     return t, np.array([track.pose(x) for x in t])
 
@@ -25,7 +25,7 @@ def _samples(track: Track, n: int = 3000):
 @settings(max_examples=30, deadline=None)
 @given(waypoints, st.floats(1.0, 15.0), st.floats(0.0, 400.0))
 def test_speed_continuity_and_heading(pts, speed_mps, radius) -> None:
-    track = Track(pts, [speed_mps], radius)
+    track = Route(pts, [speed_mps], radius)
     t, pose = _samples(track)
     dt = t[1] - t[0]
     step = np.hypot(np.diff(pose[:, 0]), np.diff(pose[:, 1]))
@@ -47,7 +47,7 @@ def test_speed_continuity_and_heading(pts, speed_mps, radius) -> None:
 
 
 def test_turn_has_the_requested_radius_and_ends_on_the_next_leg() -> None:
-    track = Track([(0.0, 0.0), (0.0, 1000.0), (1000.0, 1000.0)], [5.0], 200.0)
+    track = Route([(0.0, 0.0), (0.0, 1000.0), (1000.0, 1000.0)], [5.0], 200.0)
     arc = next(s for s in track.segments if s.turn != 0.0)
     assert 1.0 / arc.turn == pytest.approx(200.0)  # a right turn (heading increases toward +X)
     mid = track.pose(arc.t0_s + arc.duration_s / 2)
@@ -55,12 +55,12 @@ def test_turn_has_the_requested_radius_and_ends_on_the_next_leg() -> None:
     assert math.dist(mid[:2], centre) == pytest.approx(200.0, abs=1e-6)
     end = track.pose(arc.t0_s + arc.duration_s)
     assert end == pytest.approx((200.0, 1000.0, math.pi / 2), abs=1e-6)
-    left_turn = Track([(0.0, 0.0), (0.0, 1000.0), (-1000.0, 1000.0)], [5.0], 200.0)
+    left_turn = Route([(0.0, 0.0), (0.0, 1000.0), (-1000.0, 1000.0)], [5.0], 200.0)
     assert next(s for s in left_turn.segments if s.turn != 0.0).turn == pytest.approx(-1 / 200.0)
 
 
 def test_hold_stops_and_turns_on_the_spot() -> None:
-    track = Track(
+    track = Route(
         [(0.0, 0.0), (0.0, 100.0), (100.0, 100.0)], [10.0, 5.0], 50.0, start_s=2.0, holds_s=[0, 8, 0]
     )
     assert track.pose(12.0)[:2] == pytest.approx((0.0, 100.0))  # arrived at t = 2 + 10
@@ -75,4 +75,4 @@ def test_hold_stops_and_turns_on_the_spot() -> None:
 )
 def test_bad_tracks(args) -> None:
     with pytest.raises(ValueError):
-        Track(*args, 10.0)
+        Route(*args, 10.0)

@@ -1,4 +1,5 @@
-"""edge.encode.targets: target numbers are unique among live tracks and never reused within the quarantine."""
+"""edge.encode.target_numbers: target numbers are unique among live tracks and never reused
+within the quarantine."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.encode.targets import TargetNumbers
+from edge.encode.target_numbers import TargetNumbers
 
 
 def test_numbers_start_at_one_and_stay_with_their_track() -> None:
