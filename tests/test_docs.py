@@ -4,12 +4,17 @@
   is defined in docs/ (an `{#eq-N.N}` anchor, as docs/method.md writes them);
 - every page under docs/ is in the site's navigation, and every nav entry exists (the strict build
   in tools/test checks the links; this keeps the two lists in step without building);
-- the README stays short: at most 200 lines.
+- the README stays short: at most 200 lines;
+- user-facing text (the README and every page but docs/decisions.md, which keeps the history) names
+  no issue or ruling numbers;
+- nothing in the repository cites the background documents kept outside it (the method, design and
+  outputs notes the project started from): code cites docs pages instead (`docs/method.md eq. 4.5`).
 """
 
 from __future__ import annotations
 
 import re
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -23,6 +28,9 @@ EQ_REF = re.compile(r"\b(?:[Ee]qs?|[Ee]quations?)\.?\s*\(?("
                     + EQ_ID + r"(?:\s*(?:,|/|-|–|and|to)\s*" + EQ_ID + r")*)")
 EQ_DEF = re.compile(r"\{#eq-(" + EQ_ID + r")\}")
 MAX_README_LINES = 200
+HISTORY_PAGE = "decisions.md"
+TRACKER_NUMBERS = re.compile(r"\b(?:issues?|rulings?)\s+(?:#\s*)?\d+", re.I)
+OUTSIDE_DOCS = re.compile(r"\b(?:" + "|".join(("SPEC", "DESIGN", "OUTPUTS")) + r")(?:\.md\b|'s\b|\s+eq\.)")
 
 
 def _code_files() -> list[Path]:
@@ -98,3 +106,38 @@ def test_every_page_is_in_the_navigation_and_every_entry_exists() -> None:
 def test_readme_is_short(name: str) -> None:
     lines = (ROOT / name).read_text().count("\n")
     assert lines <= MAX_README_LINES, f"{name} has {lines} lines; the detail belongs in docs/"
+
+
+def _user_facing() -> list[Path]:
+    return [ROOT / "README.md"] + sorted(p for p in DOCS.rglob("*.md") if p.name != HISTORY_PAGE)
+
+
+def test_the_tracker_pattern_reads_what_it_should() -> None:
+    assert TRACKER_NUMBERS.findall("as issue 16 and rulings 1 and 4 said; Issue #18") == [
+        "issue 16", "rulings 1", "Issue #18"]
+    assert not TRACKER_NUMBERS.search("a known issue with 3 ships")
+
+
+def test_user_facing_text_names_no_issue_or_ruling_numbers() -> None:
+    found = {str(p.relative_to(ROOT)): TRACKER_NUMBERS.findall(p.read_text()) for p in _user_facing()}
+    found = {page: hits for page, hits in found.items() if hits}
+    assert not found, f"issue/ruling numbers in user-facing text (history: docs/{HISTORY_PAGE}): {found}"
+
+
+def _tracked_text_files() -> list[Path]:
+    try:
+        out = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
+        paths = [ROOT / name for name in out.decode().split("\0") if name]
+    except (OSError, subprocess.CalledProcessError):  # not a git checkout: every file but the usual caches
+        skip = {".git", ".venv", "out", "build", "__pycache__", ".mypy_cache", ".ruff_cache", ".pytest_cache"}
+        paths = [p for p in ROOT.rglob("*") if not skip & set(p.relative_to(ROOT).parts)]
+    return [p for p in paths if p.is_file() and p.suffix not in (".png", ".jpg")]
+
+
+def test_nothing_cites_documents_outside_the_repository() -> None:
+    hits = []
+    for path in _tracked_text_files():
+        for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
+            if OUTSIDE_DOCS.search(line):
+                hits.append(f"{path.relative_to(ROOT)}:{number}: {line.strip()[:80]}")
+    assert not hits, "cite docs pages (docs/method.md, docs/design.md, ...) instead:\n" + "\n".join(hits)

@@ -1,4 +1,4 @@
-"""The recording directory of DESIGN.md: writing it, and reading its ground truth.
+"""The recording directory (docs/recordings.md): writing it, and reading its ground truth.
 
 ```
 meta.yaml    format: 1, fps, width, height, calibration: {...}, site: {...}, notes (+ extra keys)
