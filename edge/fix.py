@@ -2,7 +2,7 @@
 
 The pipeline emits one `ShipFix` per live track and pair; NMEA, Modbus and the
 tracks CSV are all written from it. Times are UTC nanoseconds of the
-measurement (not of sending); positions are in the world frame of SPEC.md
+measurement (not of sending); positions are in the rig frame of docs/method.md ("Frames and units")
 (origin at the baseline midpoint, X right, Y down, Z forward) and on WGS-84.
 Unknown values are ``None`` so that outputs can leave them empty, never 0.
 """

@@ -1,4 +1,4 @@
-"""Pipeline: FramePair -> list[ShipFix], the whole measurement chain of DESIGN.md.
+"""Pipeline: FramePair -> list[ShipFix], the whole measurement chain of docs/design.md.
 
     detect (every k-th pair, decimated left image)     edge.measure.detect
     -> TrackTable: associate, birth/confirm/coast/drop  edge.measure.tracks

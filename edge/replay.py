@@ -1,7 +1,7 @@
 """Replay: the real pipeline over a recording, synchronously, writing NMEA and the per-fix CSV.
 
 `mast-stereo replay RECORDING [--config FILE] [--nmea FILE] [--tracks FILE]`
-(DESIGN.md). Calibration, site and frame rate come from the recording's
+(docs/cli.md, docs/recordings.md). Calibration, site and frame rate come from the recording's
 meta.yaml; a configuration file, when given, overrides the calibration and
 site it names and supplies the pipeline settings. Pairs are processed as fast
 as the CPU allows, in recording order, by the same `Pipeline` the daemon

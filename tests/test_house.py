@@ -1,4 +1,4 @@
-"""House rules that keep the architecture honest (DESIGN.md, "The house").
+"""House rules that keep the architecture honest (docs/house-rules.md).
 
 - no import cycle anywhere in `edge/` and `drivers/`, `TYPE_CHECKING` imports counted;
 - `edge/core` is pure computation (no I/O, threads, drivers or config parsing) and imports

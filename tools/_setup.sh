@@ -3,7 +3,7 @@
 #  - as root: Debian packages needed to build systemd-python (libsystemd-dev, pkg-config)
 #    and the real peers the tests talk to (socat for pty pairs, mbpoll as an independent
 #    Modbus client);
-#  - a venv in .venv with the project installed editable, with the test and plots extras.
+#  - a venv in .venv with the project installed editable, with the test, plots and docs extras.
 set -euo pipefail
 # `TOOL -h|--help`: the calling tool's header comment (its usage), before anything is installed.
 if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
@@ -66,7 +66,7 @@ want="$(cat pyproject.toml | sha256sum | cut -d' ' -f1)"
 if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$want" ]]; then
     echo "setup: installing the project into .venv" >&2
     .venv/bin/python -m pip install -q --upgrade pip >&2
-    .venv/bin/python -m pip install -q -e ".[test,plots]" >&2
+    .venv/bin/python -m pip install -q -e ".[test,plots,docs]" >&2
     echo "$want" > "$stamp"
 fi
 # The lab package (evaluation, benchmarks, fault injection, fake devices) is not in the wheel: a .pth

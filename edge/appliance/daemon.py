@@ -1,6 +1,6 @@
 """The live appliance: frame-pair source -> Pipeline -> Outputs, with health, the watchdog and reload.
 
-Threads (DESIGN.md): a capture thread reads the source into a one-slot queue where the newest
+Threads (docs/design.md): a capture thread reads the source into a one-slot queue where the newest
 pair wins (drops counted), so a slow step never backs up the cameras (a source without
 pacing, a recording or the simulator at full speed, waits for the slot instead: it loses
 nothing); a processing thread runs `Pipeline.step` and hands the fixes to `Outputs` (whose

@@ -39,7 +39,7 @@ class HealthState(enum.Enum):
 
 
 class Status(enum.IntFlag):
-    """Bits of the Modbus STATUS register (OUTPUTS.md)."""
+    """Bits of the Modbus STATUS register (docs/operations.md, docs/modbus.md)."""
 
     OK = 1 << 0
     CAMERA_LEFT = 1 << 1

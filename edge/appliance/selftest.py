@@ -171,7 +171,7 @@ class Selftest:
             return Check("daemon", PASS, detail + ", OK")
         state = "DEGRADED" if Status.DEGRADED in bits else "STALLED"
         return Check("daemon", FAIL, f"{detail}, {state}, fault code {self.daemon.fault_code}",
-                     "journalctl -u mast-stereo; the fault code is 10 x stage + kind (README, Operations)")
+                     "journalctl -u mast-stereo; the fault code is 10 x stage + kind (docs/operations.md)")
 
     def check_cameras(self) -> Check:
         if self.plan is None:

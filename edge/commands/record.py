@@ -1,6 +1,6 @@
 """`mast-stereo record --config FILE --out RECORDING (--seconds N | --frames N) [--force]`.
 
-Captures pairs from the configured cameras into a recording (DESIGN.md) that `mast-stereo replay`
+Captures pairs from the configured cameras into a recording (docs/recordings.md) that `mast-stereo replay`
 reads. The configuration is loaded and the source planned exactly as the daemon does
 (`plan_source`), so a bad configuration exits 78 before any device opens or any file is written.
 The capture and the writing are edge/recording/capture.py's: PNGs on a writer thread, every pair all or

@@ -1,7 +1,7 @@
 """`mast-stereo replay RECORDING [--config FILE] [--nmea FILE] [--tracks FILE]`: run the pipeline.
 
 NMEA sentences go to `--nmea` (default standard output, `-` too), the per-fix
-CSV (DESIGN.md columns) to `--tracks` when given, and a short summary with
+CSV (the columns of docs/outputs.md) to `--tracks` when given, and a short summary with
 the counts (pairs read, skipped, dropped, refused, fixes, tracks) to standard
 error. The same recording always gives byte-identical outputs. A directory
 that is not a recording, or a bad configuration, is a configuration error

@@ -8,7 +8,7 @@ configuration or calibration file that others can write: edge.config.trust), the
 STATUS=, WATCHDOG=1, RELOADING=1 and STOPPING=1 go to systemd when $NOTIFY_SOCKET is
 set; under systemd the log goes to the journal as structured records. `--print-nmea`
 also writes the NMEA sentences to stdout (the demo uses it). `--record DIR` also records the
-processed pairs into a new recording directory (DESIGN.md's format, what `record` writes and
+processed pairs into a new recording directory (docs/recordings.md, what `record` writes and
 `replay` reads); a write failure (a full disk) stops only the recording, shown as a fault on the
 `recording` health stage; a DIR that cannot be created exits 73 before anything opens.
 """

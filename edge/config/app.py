@@ -10,7 +10,7 @@ Every key has a default, and the defaults are the demo: simulated cameras
 running the `akashi-crossing` scenario, Modbus TCP on 127.0.0.1:1502, no
 serial port. `AppConfig()` is therefore a working configuration, and
 config/demo.yaml spells the same thing out. `markdown_table(AppConfig)`
-renders this schema for the README.
+renders this schema for docs/configuration.md.
 
 `calibration` is a path to a calibration YAML (edge.config.calibration) or the same
 mapping inline; when absent, virtual cameras take the scenario's calibration
@@ -299,8 +299,8 @@ class AppConfig:
     outputs: OutputsConfig = setting(default_factory=OutputsConfig)
     health: HealthConfig = setting(default_factory=HealthConfig)
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
-    alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # issue 18 (edge/config/alerts.py)
-    ais: AisConfig | None = setting(None, doc="AIS input and association (issue 17); null: off")
+    alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # edge/config/alerts.py
+    ais: AisConfig | None = setting(None, doc="AIS input and association (docs/ais.md); null: off")
 
     @property
     def effective_site(self) -> Site | None:
@@ -365,5 +365,5 @@ def load_config(path: str | Path) -> AppConfig:
 
 
 def schema_markdown() -> str:
-    """The configuration reference table for the README."""
+    """The configuration reference table (docs/configuration.md)."""
     return markdown_table(AppConfig)

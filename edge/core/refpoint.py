@@ -1,7 +1,7 @@
 """Sub-pixel reference point: follow a left-image point from one frame to the next.
 
 The thesis kept the left (reference) point at whole pixels, so every re-anchoring of the track
-jumped the window by up to half a pixel (SPEC.md, "What the thesis left open", item 3). Here the
+jumped the window by up to half a pixel (docs/method.md, "What the thesis measured", item 3). Here the
 point moves at sub-pixel precision:
 
 1. integer 2-D search: ZSSD of the previous frame's window (at the rounded point) against every

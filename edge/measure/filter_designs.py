@@ -15,7 +15,8 @@ from edge.measure.settings import PointSettings
 
 # Correlation time of the matcher's disparity error (s), for the reported sigma (eq. K.8 of
 # edge.core.kalman_design): fitted with edge.measure.depthcheck's GAIN on the eleven recordings of the
-# README's ruling-1 table (docs/decisions.md); 0.10 s puts RMS(e / sigma) in 0.6-1.5 on all of them
+# sigma-criterion table of docs/accuracy.md (docs/decisions.md); 0.10 s puts RMS(e / sigma) in
+# 0.6-1.5 on all of them
 # (0.12 s before the depth check; with it, 0.09 s put akashi-crossing at 1.51).
 MATCH_ERROR_CORR_S = 0.10
 

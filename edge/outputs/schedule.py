@@ -2,7 +2,7 @@
 
 Every processing step hands the live fixes to `NmeaScheduler.step()`, which
 returns the track updates (groups of TTM/TLL/TXY sentences, one group per
-target) to send now. Rules (OUTPUTS.md):
+target) to send now. Rules (docs/nmea.md, "Line budget"):
 
 - Byte budget: a token bucket filled at `bytes_per_s` (for a serial line the
   baud rate divided by the bits per character, e.g. 10 for 8N1, times a

@@ -1,4 +1,4 @@
-"""Recording the configured cameras into DESIGN.md's recording directory, safely on a full disk.
+"""Recording the configured cameras into a recording directory (docs/recordings.md), safely on a full disk.
 
 `mast-stereo record` (edge/commands/record.py) plans the source exactly as the daemon does and
 calls `record()`: the capture loop (the caller's thread) reads pairs and hands them to a bounded

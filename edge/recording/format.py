@@ -1,4 +1,5 @@
-"""The recording directory: its one writer (atomic, pair by pair), and reading its ground truth and AIS.
+"""The recording directory (docs/recordings.md): its one writer (atomic, pair by pair), and reading
+its ground truth and AIS.
 
 ```
 meta.yaml    format: 1, fps, width, height, calibration: {...}, site: {...}, notes (+ extra keys)

@@ -1,6 +1,7 @@
 """`run --record DIR`: the daemon records the pairs it processes, and a full disk is a fault, not a stop.
 
-`LiveRecorder` writes DESIGN.md's recording format through edge/recording/format.py's `RecordingWriter` and
+`LiveRecorder` writes the recording format (docs/recordings.md) through edge/recording/format.py's
+`RecordingWriter` and
 `PairWriter` (every pair all or nothing on disk, PNGs encoded on the writer's own thread). The
 processing thread only offers each pair to the writer's bounded queue: when the writer falls
 behind the oldest queued pair is dropped and counted (the live-source policy of edge/recording/capture.py),

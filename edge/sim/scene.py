@@ -1,6 +1,6 @@
 """The world the cameras look at: a curved sea under a sky, seen through haze or fog.
 
-Geometry (world frame of DESIGN.md: X right, Y down, Z forward, origin at the
+Geometry (rig frame of docs/method.md: X right, Y down, Z forward, origin at the
 baseline midpoint, `height_m` above mean sea level):
 
 - The sea is the sphere of the *effective* Earth radius R_e = R / (1 - k)

@@ -1,4 +1,4 @@
-"""Plots of the error budget (SPEC.md "Error model"), and the tables behind them.
+"""Plots of the error budget (docs/method.md, "Error model"), and the tables behind them.
 
     .venv/bin/python tools/error-budget --out DIR [--width 2048] [--delta 0.11] [--tolerance 150]
 
@@ -29,7 +29,7 @@ DELTAS_PX = (0.5, 0.15, 0.11)
 TABLE_BASELINES_M = (2.0, 4.0, 8.14, 12.0, 20.0, 30.0)
 TABLE_K = (50, 100, 200, 300, 400, 500, 600, 700)
 THESIS_BASELINE_M = 8.14
-TARGET_RANGE_M = 5500.0  # ~3 nautical miles, where near-shore collisions happen (SPEC.md)
+TARGET_RANGE_M = 5500.0  # ~3 nautical miles, where near-shore collisions happen (docs/method.md)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,7 +2,7 @@
 
 A short recording is simulated (akashi-crossing, one ship; rendering is the slow part, so the
 pytest runner passes the one the replay tests render) and replayed clean; a copy gets every
-kind of damage in the first half, rows apart (DESIGN.md's recording format: frames.csv rows,
+kind of damage in the first half, rows apart (docs/recordings.md's format: frames.csv rows,
 left/ and right/ PNGs): truncated PNGs, missing PNG files, rows missing from frames.csv (a
 sequence gap), timestamps going back and one stamp far ahead of its sequence number. A real
 `mast-stereo replay` subprocess plays it: exit 0, no traceback, the summary on stderr counts

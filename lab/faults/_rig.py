@@ -44,7 +44,7 @@ from lab.faults._modbus_attack import recv_exact
 
 RATE_HZ = 10.0  # the scenario's frame rate
 SCENARIO = "akashi-crossing"
-STATUS_REG = 17  # health block 16 + 1 (OUTPUTS.md)
+STATUS_REG = 17  # health block 16 + 1 (docs/modbus.md)
 FAULT_REG = 18
 
 

@@ -1,4 +1,4 @@
-"""Register map: known answers, scaling/sentinels, slot allocation, README table in sync."""
+"""Register map: known answers, scaling/sentinels, slot allocation, the documented table in sync."""
 
 from __future__ import annotations
 
@@ -221,11 +221,11 @@ def test_table_documents_every_address_once() -> None:
     assert BY_NAME["LAT"].scale == 1e-7
 
 
-def test_readme_register_table_is_the_generated_one() -> None:
-    readme = (ROOT / "README.md").read_text()
-    m = re.search(r"<!-- registers:begin -->\n(.*?)<!-- registers:end -->", readme, re.S)
-    assert m, "README.md lacks the <!-- registers:begin/end --> markers"
-    assert m[1] == render_markdown_table(), "README register table is stale: run tools/register-table"
+def test_documented_register_table_is_the_generated_one() -> None:
+    page = (ROOT / "docs" / "modbus.md").read_text()
+    m = re.search(r"<!-- registers:begin -->\n(.*?)<!-- registers:end -->", page, re.S)
+    assert m, "docs/modbus.md lacks the <!-- registers:begin/end --> markers"
+    assert m[1] == render_markdown_table(), "docs/modbus.md register table is stale: run tools/gen-docs"
 
 
 def test_register_table_tool_prints_the_generated_table() -> None:
