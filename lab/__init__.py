@@ -1,0 +1,1 @@
+"""Lab-only code (evaluation, benchmarks, fault injection, fakes): in the repository, not in the wheel."""
