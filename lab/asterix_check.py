@@ -174,7 +174,8 @@ def compare(name: str, blocks: Sequence[bytes], nmea: str) -> Check:
             check.unmatched += 1
             continue
         best = min(near, key=lambda r: _metres(r.lat_deg, r.lon_deg, u.lat_deg, u.lon_deg))
-        check.max_position_m = max(check.max_position_m, _metres(best.lat_deg, best.lon_deg, u.lat_deg, u.lon_deg))
+        d_m = _metres(best.lat_deg, best.lon_deg, u.lat_deg, u.lon_deg)
+        check.max_position_m = max(check.max_position_m, d_m)
         numbers_of[u.track_id].add(best.number)
         if u.sog_kn is not None and u.cog_deg is not None:
             if best.sog_kn is None or best.cog_deg is None:
