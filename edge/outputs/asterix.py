@@ -213,6 +213,7 @@ class AsterixOutput:
             "asterix_fixes_in": c["fixes_in"], "asterix_fixes_reported": c["fixes_reported"],
             "asterix_fixes_dropped": c["refused"] + c["no_number"] + c["not_eligible"] + c["superseded"],
             "asterix_tracks_ended": c["tracks_ended"], "asterix_records": c["records"],
+            "asterix_blocks_out": c["blocks"],
             "asterix_status_messages": c["status_periodic"] + c["status_event"],
             "asterix_udp_datagrams": sum(st.sent_datagrams for st in stats),
             "asterix_udp_dropped": sum(st.dropped for st in stats),
