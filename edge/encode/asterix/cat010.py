@@ -19,10 +19,11 @@ I010/010, /000, /140. `sensor_status` maps the appliance health to I010/550.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
-from edge.encode.asterix.blocks import record
+from edge.encode.asterix.blocks import fspec, record
 from edge.encode.asterix.items import (
     KN_PER_MPS,
     Coasting,
@@ -109,32 +110,42 @@ def velocity_en_mps(sog_kn: float, cog_deg: float) -> tuple[float, float]:
     return v * math.sin(c), v * math.cos(c)
 
 
+@functools.lru_cache(maxsize=64)
+def _head(source: Source) -> bytes:
+    """I010/010, /000 (target report) and /020: the same three items in every report of a source."""
+    return data_source(source.sac, source.sic) + message_type(MessageType.TARGET_REPORT) + \
+        target_descriptor(source.target_type)
+
+
+_fspec = functools.lru_cache(maxsize=64)(fspec)  # a handful of item sets recur
+
+
 def target_report(fix: ShipFix, number: int, source: Source, *, last: bool = False) -> bytes:
     """One type 1 record for `fix` under track number `number`; `last` sets TRE (the track ends).
-    ValueError for a fix that cannot be coded (a position that is not finite)."""
+    ValueError for a fix that cannot be coded (a position that is not finite). The items are
+    joined in FRN order directly (this runs for every track at every pair)."""
     if not (math.isfinite(fix.lat_deg) and math.isfinite(fix.lon_deg) and math.isfinite(fix.range_m)):
         raise ValueError(f"track {fix.track_id}: position not finite")
-    items = {
-        FRN["010"]: data_source(source.sac, source.sic),
-        FRN["000"]: message_type(MessageType.TARGET_REPORT),
-        FRN["020"]: target_descriptor(source.target_type),
-        FRN["140"]: time_of_day(fix.t_ns),
-        FRN["041"]: wgs84(fix.lat_deg, fix.lon_deg),
-        FRN["161"]: track_number(number),
-        FRN["170"]: track_status(tentative=fix.status is TrackStatus.ACQUIRING, last=last,
-                                 coasting=Coasting.UNPREDICTABLE if fix.status is TrackStatus.LOST
-                                 else Coasting.NONE),
-        FRN["500"]: position_sigma(*position_covariance(fix)),
-    }
+    frns = [FRN["010"], FRN["000"], FRN["020"], FRN["140"], FRN["041"]]
+    parts = [_head(source), time_of_day(fix.t_ns), wgs84(fix.lat_deg, fix.lon_deg)]
     xy = cartesian(*east_north_m(fix))
     if xy is not None:
-        items[FRN["042"]] = xy
+        frns.append(FRN["042"])
+        parts.append(xy)
     if fix.sog_kn is not None and fix.cog_deg is not None:
-        items[FRN["200"]] = polar_velocity(fix.sog_kn, fix.cog_deg)
-        items[FRN["202"]] = cartesian_velocity(*velocity_en_mps(fix.sog_kn, fix.cog_deg))
+        frns += (FRN["200"], FRN["202"])
+        parts += (polar_velocity(fix.sog_kn, fix.cog_deg),
+                  cartesian_velocity(*velocity_en_mps(fix.sog_kn, fix.cog_deg)))
+    coasting = Coasting.UNPREDICTABLE if fix.status is TrackStatus.LOST else Coasting.NONE
+    frns += (FRN["161"], FRN["170"])
+    parts += (track_number(number),
+              track_status(tentative=fix.status is TrackStatus.ACQUIRING, last=last, coasting=coasting))
     if fix.length_m is not None and math.isfinite(fix.length_m) and fix.length_m > 0:
-        items[FRN["270"]] = size_orientation(fix.length_m, fix.cog_deg)
-    return record(items)
+        frns.append(FRN["270"])
+        parts.append(size_orientation(fix.length_m, fix.cog_deg))
+    frns.append(FRN["500"])
+    parts.append(position_sigma(*position_covariance(fix)))
+    return _fspec(tuple(frns)) + b"".join(parts)
 
 
 def status_report(source: Source, utc_ns: int, status: SensorStatus, *, event: bool = False) -> bytes:
