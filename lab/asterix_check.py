@@ -13,7 +13,8 @@ exposure (time of day within 1/128 s, the nearest position). Checks, per recordi
   and no number shared by two tracks (4,095 numbers lent least-recently-used first);
 - TRE: each track number's last report has I010/170 TRE set (the replay ends every track at the end).
 
-Prints one table row per recording and exits 1 if any check fails.
+Prints one table row per recording and exits 1 if any check fails. `--bench N` also prints
+the output's CPU cost per pair with N tracks (the median of 7 runs of 200 pairs).
 """
 
 from __future__ import annotations
@@ -226,11 +227,47 @@ def row(c: Check) -> tuple[str, ...]:
             str(c.tre_midway), str(c.largest_block), "PASS" if c.passed else "FAIL")
 
 
+def bench_publish(tracks: int = 32, steps: int = 200, repeats: int = 7) -> tuple[float, float]:
+    """(median CPU ms per `AsterixOutput.publish` of `tracks` fixes with speed, course and length,
+    median CPU us per target report): the cost the output adds to each pair."""
+    import time
+
+    from edge.config.asterix import AsterixConfig
+    from edge.encode.asterix import cat010
+    from edge.fix import ShipFix, TrackStatus
+    from edge.outputs.asterix import AsterixOutput
+
+    t0 = 1_700_000_000 * 10**9
+    now = [0.0]
+    out = AsterixOutput(AsterixConfig(enabled=True), clock=lambda: now[0])
+    frames = [[ShipFix(t0 + k * 100_000_000, t, TrackStatus.TRACKING, 0.0, 0.0, 0.0, 1000.0 + 50 * t, 3.0 * t,
+                       34.6 + 1e-3 * t, 135.0, 12.0, 45.0, 8.0, 20.0, length_m=80.0, sigma_across_m=0.5)
+               for t in range(1, tracks + 1)] for k in range(steps)]
+    per_step, per_record = [], []
+    for _ in range(repeats):
+        start = time.process_time()
+        for fixes in frames:
+            now[0] += 0.1
+            out.publish(fixes, t0)
+        per_step.append((time.process_time() - start) / steps * 1e3)
+        start = time.process_time()
+        for fix in frames[0]:
+            cat010.target_report(fix, 1, out.source)
+        per_record.append((time.process_time() - start) / tracks * 1e6)
+    return sorted(per_step)[repeats // 2], sorted(per_record)[repeats // 2]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING")
+    parser.add_argument("recordings", nargs="*", type=Path, metavar="RECORDING")
     parser.add_argument("--config", type=Path, help="configuration (outputs.asterix, pipeline settings)")
+    parser.add_argument("--bench", type=int, metavar="TRACKS",
+                        help="also print the output's CPU cost per pair with this many tracks")
     args = parser.parse_args(argv)
+    if args.bench:
+        step_ms, record_us = bench_publish(args.bench)
+        print(f"ASTERIX publish, {args.bench} tracks: {step_ms:.3f} ms CPU per pair, "
+              f"{record_us:.1f} us a report")
     checks = [check_recording(r, args.config) for r in args.recordings]
     rows = [HEADER] + [row(c) for c in checks]
     widths = [max(len(r[k]) for r in rows) for k in range(len(HEADER))]
