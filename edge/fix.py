@@ -48,3 +48,4 @@ class ShipFix:
     # the ground-plane filter's state once its speed is known (SOG shown), for CPA/TCPA (issue 18):
     en_state: tuple[float, float, float, float] | None = None  # east m, north m, v east m/s, v north m/s
     en_cov: tuple[float, ...] | None = None  # its 4x4 covariance, row-major (16 values, m and m/s)
+    sigma_across_m: float | None = None  # the share of sigma_m across the line of sight (bearing), m

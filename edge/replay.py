@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TextIO
+from typing import BinaryIO, TextIO
 
 from drivers.camera.replay import RecordingFormatError, ReplaySource
 from edge.ais.live import RecordedAis
@@ -33,10 +33,12 @@ from edge.ais.stage import AisStage
 from edge.alerts.port import PortAlerts
 from edge.chain import Chain
 from edge.config.app import AppConfig, PipelineConfig, load_config
+from edge.config.asterix import AsterixConfig, check_asterix
 from edge.config.calibration import Calibration, recording_calibration
 from edge.encode.tracks_csv import CSV_HEADER, csv_row
 from edge.errors import ConfigError
 from edge.fix import ShipFix
+from edge.outputs.asterix import AsterixOutput
 from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Counters, Pipeline
 from edge.recording.format import read_ais
@@ -55,6 +57,8 @@ class ReplaySummary:
     tracks: int = 0  # distinct track ids that produced fixes
     nmea_lines: int = 0
     csv_rows: int = 0
+    asterix_blocks: int = 0  # ASTERIX data blocks written or sent
+    asterix_records: int = 0
     ais: AisStage | None = None  # the AIS stage, when the recording has an ais.csv
 
     def lines(self) -> list[str]:
@@ -67,7 +71,8 @@ class ReplaySummary:
             f"coasted gaps {p.gaps}, detection passes {p.detections}",
             f"fixes {p.fixes} from {self.tracks} tracks; NMEA lines {self.nmea_lines}, "
             f"CSV rows {self.csv_rows}",
-        ] + ([] if self.ais is None else [
+        ] + ([f"ASTERIX: {self.asterix_blocks} data blocks, {self.asterix_records} records"]
+             if self.asterix_blocks else []) + ([] if self.ais is None else [
             "AIS: " + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in self.ais.health_counters().items())])
 
 
@@ -116,11 +121,28 @@ def build_chain(root: str | Path, source: ReplaySource, config: AppConfig | None
     return chain
 
 
+def build_asterix(config: AppConfig | None, pipeline: Pipeline, clock: Callable[[], float],
+                  send: bool) -> AsterixOutput:
+    """The ASTERIX output of a replay: the configuration's `outputs.asterix` (else its defaults),
+    clocked by the pairs, status always operational (a recording has no appliance health); UDP
+    to the configured destinations with `send`, else only the blocks (for a file)."""
+    cfg = config.outputs.asterix if config is not None else AsterixConfig()
+    site = pipeline.site
+    position = (site.lat_deg, site.lon_deg, site.height_m)
+    if send:
+        return AsterixOutput.from_config(cfg, None, position, clock=clock)
+    return AsterixOutput(cfg, site=position, clock=clock)
+
+
 def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: TextIO | None = None,
-           tracks: TextIO | None = None, on_fixes: Callable[[int, list[ShipFix]], None] | None = None
-           ) -> ReplaySummary:
-    """Run the chain over a recording; write NMEA lines to `nmea` and CSV rows to `tracks`."""
+           tracks: TextIO | None = None, on_fixes: Callable[[int, list[ShipFix]], None] | None = None,
+           asterix: BinaryIO | None = None, asterix_send: bool = False) -> ReplaySummary:
+    """Run the chain over a recording; write NMEA lines to `nmea` and CSV rows to `tracks`;
+    ASTERIX data blocks to `asterix` (raw, back to back) and, with `asterix_send`, over UDP to the
+    configuration's `outputs.asterix` destinations."""
     config = load_config(config_path) if config_path is not None else None
+    if asterix_send and config is not None:
+        check_asterix(replace(config.outputs.asterix, enabled=True), config_path)
     source = open_recording(root)
     chain = build_chain(root, source, config)
     summary = ReplaySummary(pairs_in_recording=len(source), pipeline=chain.pipeline.counters)
@@ -130,6 +152,9 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
     if chain.alerts is not None:  # the alert sentences too, before the track updates of each pair
         stream.scheduler.alerts = PortAlerts(chain.alerts, chain.alerts.cfg)
     seen: set[int] = set()
+    now = [0.0]  # the ASTERIX status clock: the pairs' own time
+    ast = build_asterix(config, chain.pipeline, lambda: now[0], asterix_send) \
+        if asterix is not None or asterix_send else None
     if tracks is not None:
         tracks.write(CSV_HEADER + "\n")
     with source:
@@ -140,9 +165,23 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
                 tracks.write("".join(csv_row(fix) + "\n" for fix in fixes))
                 summary.csv_rows += len(fixes)
             summary.nmea_lines += sum(len(group) for group in stream.publish(fixes, pair.t_ns))
+            if ast is not None:
+                now[0] = pair.t_ns / 1e9
+                summary.asterix_blocks += _write(asterix, ast.publish(fixes, pair.t_ns))
             if on_fixes is not None:
                 on_fixes(pair.t_ns, fixes)
+    if ast is not None:  # the recording ends: every track's last report (TRE)
+        summary.asterix_blocks += _write(asterix, ast.finish())
+        summary.asterix_records = ast.counts["records"]
+        ast.close()
     summary.skipped_pairs, summary.dropped_pairs = source.skipped, source.dropped
     summary.unordered_pairs = source.out_of_order
     summary.tracks = len(seen)
     return summary
+
+
+def _write(out: BinaryIO | None, blocks: list[bytes]) -> int:
+    if out is not None:
+        for block in blocks:
+            out.write(block)
+    return len(blocks)

@@ -54,6 +54,7 @@ from edge.appliance.sources import SourcePlan, plan_source
 from edge.appliance.state import Persistence
 from edge.chain import Chain
 from edge.config.app import AppConfig, load_config
+from edge.config.asterix import check_asterix
 from edge.config.trust import check_config_files
 from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
@@ -76,6 +77,7 @@ JOIN_S = 0.5  # per thread at shutdown (a camera blocked mid-frame is left behin
 
 
 def _plan(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
+    check_asterix(config.outputs.asterix, config_file)  # its interfaces exist here (exit 78 if not)
     plan = plan_source(config, config_file)
     if plan.calibration.site is None:
         raise ConfigError(config_file, "site", "a site (lat_deg, lon_deg, height_m, heading_deg)")
@@ -161,7 +163,7 @@ class Appliance:
         assert site is not None  # build() refuses a plan without a site
         outputs = Outputs.from_config(config.outputs, health, max_tracks=config.pipeline.max_tracks,
                                       site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg,
-                                      alerts=alerts,
+                                      alerts=alerts, site_height_m=site.height_m,
                                       dark_prefix="DARK" if config.ais is None else config.ais.dark_prefix)
         for stream in extra_nmea:
             outputs.add(stream)

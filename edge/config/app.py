@@ -27,6 +27,7 @@ from typing import Any, Literal
 
 from edge.config.ais import AisConfig
 from edge.config.alerts import AlertsConfig
+from edge.config.asterix import AsterixConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
@@ -244,6 +245,7 @@ class OutputsConfig:
     udp: UdpConfig = setting(default_factory=UdpConfig)
     modbus: ModbusConfig = setting(default_factory=ModbusConfig)
     tracks_csv: str | None = setting(None, doc="append every fix to this CSV file")
+    asterix: AsterixConfig = setting(default_factory=AsterixConfig, doc="ASTERIX CAT 010 over UDP")
 
 
 # ---------------------------------------------------------------- health, logging, top level

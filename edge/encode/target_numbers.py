@@ -1,5 +1,7 @@
 """NMEA target numbers (01-99) for internal track ids, with a quarantine before reuse.
 
+ASTERIX I010/161 track numbers (1-4095) are lent by the same rules (edge.outputs.asterix).
+
 TTM/TLL carry a 2-digit target number, but track ids are never reused and
 grow without bound, so numbers must be lent out and taken back. OpenCPN keys a
 target by ``199200000 + number``: a number reused too soon would join an old
@@ -36,8 +38,8 @@ class TargetNumbers:
     """Lends target numbers 1..`max_number` to track ids; no I/O, the clock is passed in."""
 
     def __init__(self, max_number: int = 99, quarantine_s: float = 60.0) -> None:
-        if not 1 <= max_number <= 999:
-            raise ValueError(f"max_number must be 1..999, got {max_number}")
+        if not 1 <= max_number <= 4095:  # NMEA: up to 999 (3 digits); ASTERIX I010/161: 12 bits
+            raise ValueError(f"max_number must be 1..4095, got {max_number}")
         if quarantine_s < 0:
             raise ValueError(f"quarantine_s must be >= 0, got {quarantine_s}")
         self.max_number = max_number

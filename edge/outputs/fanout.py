@@ -2,13 +2,14 @@
 
 `Outputs` is what the daemon and the demo hand fixes to. It owns one output per configured
 transport (an NMEA serial port per `outputs.nmea[i]`, the optional IEC 61162-450 UDP output,
-the Modbus TCP/RTU servers, the tracks CSV, and any extra NMEA stream such as the demo's
-stdout), all behind the one `edge.outputs.base.Output` contract, and beats one health stage
-per output kind ("nmea", "modbus", "tracks_csv") so a dead port shows on the status word.
+the Modbus TCP/RTU servers, the tracks CSV, the optional ASTERIX output, and any extra NMEA
+stream such as the demo's stdout), all behind the one `edge.outputs.base.Output` contract, and
+beats one health stage per output kind ("nmea", "modbus", "tracks_csv", "asterix") so a dead
+port shows on the status word.
 
 None of the outputs block: NMEA ports queue to their own writer threads, UDP sends are
 non-blocking, the CSV has its own writer, and a Modbus server only swaps an immutable register
-image. Stages are served in order (NMEA, CSV, then Modbus), so the register image carries the
+image. Stages are served in order (NMEA, CSV, ASTERIX, then Modbus), so the register image carries the
 health of this step's other outputs. Modbus shows the NMEA target number of the first NMEA
 serial port (each port has its own allocator: numbers are per receiver); with no NMEA port the
 field reads "not available".
@@ -35,6 +36,7 @@ from edge.config.app import OutputsConfig
 from edge.encode.alert_rows import AlertImage, AlertRow
 from edge.encode.registers import ALERT_SLOTS, Identity, WordOrder
 from edge.fix import ShipFix
+from edge.outputs.asterix import AsterixOutput
 from edge.outputs.base import Output
 from edge.outputs.modbus import ModbusOutput
 from edge.outputs.nmea_serial import NmeaSerialOutput
@@ -45,10 +47,10 @@ from edge.outputs.tracks_csv import TracksCsvOutput
 log = logging.getLogger(__name__)
 
 OUTPUT_STAGES: tuple[tuple[str, Status], ...] = (
-    ("nmea", Status.NMEA_ACTIVE), ("tracks_csv", Status(0)), ("modbus", Status(0)),
+    ("nmea", Status.NMEA_ACTIVE), ("tracks_csv", Status(0)), ("asterix", Status(0)), ("modbus", Status(0)),
 )
 STAGE_ORDER = {name: k for k, (name, _) in enumerate(OUTPUT_STAGES)}
-HEALTH_ORDER = ("nmea", "modbus", "tracks_csv")  # the FAULT_CODE numbering (stages 4, 5, 6)
+HEALTH_ORDER = ("nmea", "modbus", "tracks_csv", "asterix")  # the FAULT_CODE numbering (stages 4, 5, ...)
 
 
 def output_stages(cfg: OutputsConfig, *, extra_nmea: bool = False) -> list[tuple[str, Status]]:
@@ -58,6 +60,7 @@ def output_stages(cfg: OutputsConfig, *, extra_nmea: bool = False) -> list[tuple
         "nmea": bool(cfg.nmea) or cfg.udp.enabled or extra_nmea,
         "modbus": cfg.modbus.tcp.enabled or cfg.modbus.rtu.enabled,
         "tracks_csv": cfg.tracks_csv is not None,
+        "asterix": cfg.asterix.enabled,
     }
     bits = dict(OUTPUT_STAGES)
     return [(name, bits[name]) for name in HEALTH_ORDER if on[name]]
@@ -85,7 +88,8 @@ class Outputs:
     def from_config(cls, cfg: OutputsConfig, health: HealthMonitor, *, max_tracks: int,
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
                     clock: Callable[[], float] = time.monotonic,
-                    alerts: AlertManager | None = None, dark_prefix: str = "DARK") -> Outputs:
+                    alerts: AlertManager | None = None, dark_prefix: str = "DARK",
+                    site_height_m: float | None = None) -> Outputs:
         """The configured transports; with `alerts` (the chain's manager) the NMEA ports render its
         alert sentences and Modbus its alert block."""
         manager = alerts
@@ -104,6 +108,10 @@ class Outputs:
             outputs.append(udp)
         if cfg.tracks_csv is not None:
             outputs.append(TracksCsvOutput(cfg.tracks_csv))
+        if cfg.asterix.enabled:
+            site = None if site_lat_deg is None or site_lon_deg is None else \
+                (site_lat_deg, site_lon_deg, site_height_m or 0.0)
+            outputs.append(AsterixOutput.from_config(cfg.asterix, health.snapshot, site))
         servers: list[ModbusServer] = []
         if cfg.modbus.tcp.enabled:
             servers.append(ModbusTcpServer(cfg.modbus.tcp.host, cfg.modbus.tcp.port))
@@ -183,6 +191,11 @@ class Outputs:
             for nmea in self.outputs:
                 if isinstance(nmea, NmeaSerialOutput | NmeaUdpOutput | NmeaStreamOutput):
                     nmea.publish_alerts()
+        for out in self.outputs:  # ASTERIX status: NOGO in the next message after a camera went
+            if isinstance(out, AsterixOutput):
+                self.sent[out.unit] += len(out.publish_status(utc_ns))
+                fault, counters = out.health()
+                self.health.beat(out.stage, fault=fault, counters={**counters, out.unit: self.sent[out.unit]})
         mine = [out for out in self.outputs if isinstance(out, ModbusOutput)]
         for out in mine:  # counted apart: `sent` stays one image per processed pair
             self.health_images += len(out.publish(fixes, utc_ns))

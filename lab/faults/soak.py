@@ -13,7 +13,8 @@ the first laps' tracks):
 - every computed fix emitted or counted as dropped, per output: NMEA serial
   (in = sent + dropped + pending, `edge.outputs.schedule`; groups submitted = written + dropped
   + queued; bytes read on the pty = bytes written), Modbus (in = on an image + unslotted +
-  unserved, `edge.outputs.modbus`), and pipeline fixes = each output's fixes in;
+  unserved, `edge.outputs.modbus`), ASTERIX (in = reported + dropped, blocks = sent + dropped:
+  `edge.outputs.asterix`), and pipeline fixes = each output's fixes in;
 - no pair lost at the input (the lossless hand-off of an unpaced source), none failed;
 - no track id seen again once retired, and no NMEA target number lent to a new track within
   `quarantine_s` of its last L sentence.
@@ -145,10 +146,12 @@ class ModbusPoller:
 
 
 def write_config(out: Path, recording: Path, pty_path: str, modbus_port: int, min_ship_px: int) -> Path:
+    asterix = {"enabled": True, "tracks": {"address": "127.0.0.1", "port": free_port()}, "cat034": True}
     cfg = {"cameras": {"kind": "replay", "path": str(recording), "pace": False, "loop": True},
            "pipeline": {"min_ship_px": min_ship_px},
            "outputs": {"nmea": [{"url": pty_path, "baud": 115200}],
-                       "modbus": {"tcp": {"enabled": True, "host": "127.0.0.1", "port": modbus_port}}},
+                       "modbus": {"tcp": {"enabled": True, "host": "127.0.0.1", "port": modbus_port}},
+                       "asterix": asterix},
            "health": {"stale_s": 30.0, "min_fps": 0.0, "leds": {"kind": "none"}},
            "logging": {"level": "WARNING"}}
     path = out / "soak.yaml"
@@ -233,6 +236,17 @@ def evaluate(samples: list[dict], final: dict, warmup: int, pairs: int, *, rss: 
                         f" + {ser['nmea_fixes_pending']}",
                         ser["nmea_fixes_in"] == ser["nmea_fixes_sent"] + ser["nmea_fixes_dropped"]
                         + ser["nmea_fixes_pending"]))
+    ast = outs.get("asterix_blocks")
+    if ast is not None:  # every fix reported or counted, every block sent or counted
+        bounds.append(Bound("ASTERIX: fixes computed = in = reported + dropped; blocks = sent + dropped",
+                            "equal",
+                            f"{fixes} computed, {ast['asterix_fixes_in']} in = "
+                            f"{ast['asterix_fixes_reported']} + {ast['asterix_fixes_dropped']}; "
+                            f"{ast['asterix_blocks_out']} blocks = "
+                            f"{ast['asterix_udp_datagrams']} + {ast['asterix_udp_dropped']}",
+                            fixes == ast["asterix_fixes_in"] == ast["asterix_fixes_reported"]
+                            + ast["asterix_fixes_dropped"] and ast["asterix_blocks_out"]
+                            == ast["asterix_udp_datagrams"] + ast["asterix_udp_dropped"]))
     queued = ser["serial_submitted"] - ser["serial_written"] - ser["serial_dropped"]
     bounds.append(Bound("NMEA serial: groups = written + dropped + queued", "queued >= 0, groups = submitted",
                         f"{ser['nmea_groups']} groups, {ser['serial_written']} written, "
