@@ -35,6 +35,7 @@ from edge.config.app import PipelineConfig
 from edge.config.calibration import Calibration
 from edge.core.calibsigma import Pointing
 from edge.core.geo import enu_to_world, range_bearing, speed_course, world_to_enu, world_to_latlon
+from edge.core.match import subpixel_methods
 from edge.core.rectify import Rectifier
 from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
@@ -73,7 +74,7 @@ class Pipeline:
         site = site or calibration.site
         if site is None:
             raise ValueError("the pipeline needs a site (lat/lon/height/heading) for positions")
-        if subpixel not in SUBPIXELS or (filter is not None and filter not in FILTERS):
+        if subpixel not in SUBPIXELS + subpixel_methods() or (filter is not None and filter not in FILTERS):
             raise ValueError(f"subpixel must be one of {SUBPIXELS}, filter one of {FILTERS}")
         self.site, self.fps, self.cfg = site, float(fps), cfg
         self.utc_offset_ns = int(utc_offset_ns)
