@@ -40,6 +40,7 @@ from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
 from edge.fix import ShipFix, TrackStatus
 from edge.measure.detect import Detector
+from edge.measure.seadetect import SeaDetector
 from edge.measure.groundtrack import GroundSettings, GroundTracks, PairFix, column_noise_px, pair_fix
 from edge.measure.settings import FILTERS, SUBPIXELS, PointSettings
 from edge.measure.tracks import TableSettings, Track, TrackTable
@@ -78,8 +79,9 @@ class Pipeline:
         self.utc_offset_ns = int(utc_offset_ns)
         self.rig = calibration.rig
         self.rect = Rectifier(self.rig)
-        self.detector = Detector(self.rect, site.height_m, decimation=cfg.detect_decimation,
-                                 min_ship_px=cfg.min_ship_px)
+        kind = SeaDetector if cfg.detector == "seaclutter" else Detector
+        self.detector = kind(self.rect, site.height_m, decimation=cfg.detect_decimation,
+                             min_ship_px=cfg.min_ship_px)
         self.point_settings = PointSettings(
             fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=cfg.cost,
             prefilter=cfg.prefilter, subpixel=subpixel,

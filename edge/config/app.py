@@ -130,6 +130,9 @@ class PipelineConfig:
     )
     detect_every: int = setting(5, min=1, max=1000, doc="run ship detection on every k-th pair")
     detect_decimation: int = setting(2, min=1, max=8, doc="detection works on an image shrunk by this")
+    detector: Literal["rowband", "seaclutter"] = setting(
+        "rowband", doc="rowband: contrast against each row band's spread (edge.measure.detect); seaclutter: "
+        "local sea-clutter CFAR on an image pyramid (edge.measure.seadetect, docs/detection-real.md)")
     min_ship_px: int = setting(20, min=2, max=1000, doc="smallest ship length to detect, px (eq. 3.12)")
     max_tracks: int = setting(32, min=1, max=99, doc="live tracks at most (NMEA numbers 01-99)")
     filter: Literal["kalman", "butterworth"] = setting("kalman", doc="disparity filter (Butterworth eq. 6.1)")

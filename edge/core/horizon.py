@@ -23,6 +23,7 @@ WORK_WIDTH = 480  # columns of the shrunk image the search runs on
 BANDS = 24  # column bands with one peak each
 INLIER_PX = 2.0  # shrunk-image rows from the Theil-Sen line that count as on it
 MIN_INLIERS = 8  # bands that must agree, else no horizon
+MIN_GRADIENT = 8.0  # a band's peak mean |Sobel| at least this (a 2 DN step) and twice its median
 
 
 def band_peaks(image: np.ndarray, row_range: tuple[float, float] | None = None
@@ -46,6 +47,8 @@ def band_peaks(image: np.ndarray, row_range: tuple[float, float] | None = None
     for band in np.array_split(np.arange(ws), BANDS):
         profile = grad[lo:hi, band].mean(axis=1)
         best = int(np.argmax(profile))
+        if profile[best] < max(MIN_GRADIENT, 2.0 * float(np.median(profile))):
+            continue  # no step in this band
         frac = 0.0
         if 0 < best < len(profile) - 1:
             c_m, c_0, c_p = profile[best - 1:best + 2]
