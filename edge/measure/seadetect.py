@@ -120,6 +120,8 @@ class SeaDetector(Detector):
                 continue
             if h < MIN_HEIGHT_RATIO * w:
                 continue
+            if y + h >= image.shape[0] - CELL_H:
+                continue  # cells cut by the image's bottom edge: the nearest, steepest waves
             # the cells' union overshoots the body by about half a cell on each side
             x0 = int(round((x + 0.5 * (CELL_W - 1)) * scale))
             y0 = int(round((y + 0.5 * (CELL_H - 1)) * scale)) + top
