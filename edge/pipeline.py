@@ -40,8 +40,8 @@ from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
 from edge.fix import ShipFix, TrackStatus
 from edge.measure.detect import Detector
-from edge.measure.seadetect import SeaDetector
 from edge.measure.groundtrack import GroundSettings, GroundTracks, PairFix, column_noise_px, pair_fix
+from edge.measure.seadetect import SeaDetector
 from edge.measure.settings import FILTERS, SUBPIXELS, PointSettings
 from edge.measure.tracks import TableSettings, Track, TrackTable
 

@@ -33,7 +33,7 @@ def level_columns(image: np.ndarray, shift_q8: np.ndarray) -> np.ndarray:
     whole = shift >> 8  # floor
     frac = (shift - (whole << 8)).astype(np.uint16)
     pad = int(np.abs(whole).max()) + 1
-    src = np.empty((h + 2 * pad, w), np.uint16)
+    src: np.ndarray = np.empty((h + 2 * pad, w), np.uint16)
     src[pad:pad + h] = image
     src[:pad] = image[0]
     src[pad + h:] = image[-1]
@@ -43,7 +43,7 @@ def level_columns(image: np.ndarray, shift_q8: np.ndarray) -> np.ndarray:
         r0 = pad + int(whole[c0])
         f = frac[None, c0:c1]
         acc = src[r0:r0 + h, c0:c1] * (Q - f) + src[r0 + 1:r0 + 1 + h, c0:c1] * f + 128
-        out[:, c0:c1] = acc >> 8
+        out[:, c0:c1] = np.right_shift(acc, 8)
     return out
 
 

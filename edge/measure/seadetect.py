@@ -59,7 +59,8 @@ class SeaDetector(Detector):
     """Finds ship blobs against the local sea clutter; keeps the refined horizon between calls."""
 
     def __init__(self, rectifier: Rectifier, site_height_m: float, *, decimation: int = 2,
-                 min_ship_px: int = 20, levels: int = LEVELS, k4: int = K4, floor_dn: float = FLOOR_DN) -> None:
+                 min_ship_px: int = 20, levels: int = LEVELS, k4: int = K4,
+                 floor_dn: float = FLOOR_DN) -> None:
         super().__init__(rectifier, site_height_m, decimation=decimation, min_ship_px=min_ship_px)
         self.levels = max(1, int(levels))
         self.k4 = int(k4)
@@ -99,13 +100,15 @@ class SeaDetector(Detector):
             c1 = max(c0 + 1, min(ws, x1))
             dy = shifts[c0:c1]  # back from levelled rows to image rows
             top_raw, bottom_raw = y0 + math.floor(dy.min() + 0.5), y1 + math.floor(dy.max() + 0.5)
-            blob = Blob(x0 * dec, top_raw * dec, x1 * dec, bottom_raw * dec, (x1 - x0) * (y1 - y0) * dec * dec,
+            blob = Blob(x0 * dec, top_raw * dec, x1 * dec, bottom_raw * dec,
+                        (x1 - x0) * (y1 - y0) * dec * dec,
                         contrast)
             if self._on_sea(blob, horizon, search_mask):
                 blobs.append(blob)
         return sorted(_suppress_contained(blobs), key=lambda b: (b.x0, b.y0))
 
-    def _level_candidates(self, image: np.ndarray, k: int, top: int) -> list[tuple[int, int, int, int, float]]:
+    def _level_candidates(self, image: np.ndarray, k: int, top: int
+                          ) -> list[tuple[int, int, int, int, float]]:
         """Components of one level's CFAR hits, as working-resolution boxes (levelled rows)."""
         hits, a, bright, clutter = cfar_hits(image, self.k4, self.floor_q)
         n, labels, stats, _ = cv2.connectedComponentsWithStats(hits, connectivity=8)

@@ -21,6 +21,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import argparse
 import sys
 import time
+from collections.abc import Callable
+from functools import partial
 
 import cv2
 import numpy as np
@@ -38,7 +40,8 @@ def sea_image(det: Detector, rng: np.random.Generator) -> np.ndarray:
     rows = np.arange(HEIGHT, dtype=np.float32)[:, None] - det.horizon_raw[None, :].astype(np.float32)
     below = np.clip(rows, 0.0, None)
     image = np.where(rows < 0, 170.0, 95.0 + 10.0 * np.exp(-below / 20.0)).astype(np.float32)
-    waves = cv2.GaussianBlur(rng.normal(0.0, 1.0, (HEIGHT, WIDTH)).astype(np.float32), (0, 0), 6.0, sigmaY=1.2)
+    noise = rng.normal(0.0, 1.0, (HEIGHT, WIDTH)).astype(np.float32)
+    waves = cv2.GaussianBlur(noise, (0, 0), 6.0, sigmaY=1.2)
     image += np.where(rows < 0, 0.0, 0.02 * below * waves / waves.std())
     glitter = (rng.random((HEIGHT, WIDTH)) < 0.002) & (rows > 20)
     image[glitter] += 80.0
@@ -62,8 +65,8 @@ def main(argv: list[str] | None = None) -> int:
     image = sea_image(dets["rowband"], np.random.default_rng(0))
     right = np.roll(image, -8, axis=1)
     bm = cv2.StereoBM_create(numDisparities=128, blockSize=15)  # type: ignore[attr-defined]  # not in cv2's stubs
-    calls = {**{k: (lambda d=d: d.detect(image)) for k, d in dets.items()},
-             "StereoBM": lambda: bm.compute(image, right)}
+    calls: dict[str, Callable[[], object]] = {k: partial(d.detect, image) for k, d in dets.items()}
+    calls["StereoBM"] = partial(bm.compute, image, right)
     times: dict[str, list[float]] = {k: [] for k in calls}
     found = {k: len(d.detect(image)) for k, d in dets.items()}
     for rep in range(args.repeat):

@@ -136,7 +136,8 @@ def load_annotations(images: list[Path], labels: Path | None, fmt: str) -> dict[
                 if len(parts) < 5:
                     continue
                 c, xc, yc, bw, bh = parts[0], *(float(v) for v in parts[1:5])
-                found.append(Box((xc - bw / 2) * w, (yc - bh / 2) * h, (xc + bw / 2) * w, (yc + bh / 2) * h, c))
+                found.append(Box((xc - bw / 2) * w, (yc - bh / 2) * h, (xc + bw / 2) * w,
+                                 (yc + bh / 2) * h, c))
             out[img] = found
         elif fmt == "voc":
             folder = labels if labels is not None else img.parent
@@ -189,7 +190,8 @@ def load_geometry(path: Path) -> tuple[CameraGeometry, dict[str, CameraGeometry]
         if hz != "auto" and not (isinstance(hz, list) and len(hz) == 2 and all(len(p) == 2 for p in hz)):
             raise SystemExit(f"evaluate-detect: {path}: {key}.horizon must be auto or [[x0, y0], [x1, y1]]")
         if not 1.0 <= float(geo.hfov_deg) <= 170.0 or not 0.5 <= float(geo.site_height_m) <= 2000.0:
-            raise SystemExit(f"evaluate-detect: {path}: {key}: hfov_deg in 1..170, site_height_m in 0.5..2000")
+            raise SystemExit(f"evaluate-detect: {path}: {key}: hfov_deg in 1..170, "
+                             "site_height_m in 0.5..2000")
         for poly in geo.sea:
             if len(poly) < 3 or any(len(p) != 2 for p in poly):
                 raise SystemExit(f"evaluate-detect: {path}: {key}.sea: polygons of at least 3 [x, y] points")
@@ -332,7 +334,8 @@ HEADERS = ["set", "det", "imgs", *[b[2] for b in BINS], ">=20", "FA sea/img", "F
 
 
 # ----------------------------------------------------------------------------- overlays
-def overlay(image: np.ndarray, horizon: np.ndarray, results: dict[str, tuple[list[Box], list[Blob], list[Box]]],
+def overlay(image: np.ndarray, horizon: np.ndarray,
+            results: dict[str, tuple[list[Box], list[Blob], list[Box]]],
             others: list[Box], max_width: int = 1600) -> np.ndarray:
     panels = []
     for det in DETECTORS:
@@ -342,10 +345,11 @@ def overlay(image: np.ndarray, horizon: np.ndarray, results: dict[str, tuple[lis
         pts = np.stack([xs, horizon], -1)[:: max(1, len(xs) // 64)]
         cv2.polylines(img, [np.round(pts).astype(np.int32)], False, (255, 255, 0), 1)
         for boxes, colour in ((others, (128, 128, 128)), (hits, (0, 200, 0)), (missed, (0, 0, 255))):
-            for b in boxes:
-                cv2.rectangle(img, (int(b.x0) - 2, int(b.y0) - 2), (int(b.x1) + 2, int(b.y1) + 2), colour, 2)
-        for b in false:
-            cv2.rectangle(img, (b.x0 - 3, b.y0 - 3), (b.x1 + 3, b.y1 + 3), (0, 255, 255), 2)
+            for box in boxes:
+                cv2.rectangle(img, (int(box.x0) - 2, int(box.y0) - 2), (int(box.x1) + 2, int(box.y1) + 2),
+                              colour, 2)
+        for blob in false:
+            cv2.rectangle(img, (blob.x0 - 3, blob.y0 - 3), (blob.x1 + 3, blob.y1 + 3), (0, 255, 255), 2)
         cv2.putText(img, det, (10, 40), cv2.FONT_HERSHEY_SIMPLEX, 1.2, (0, 255, 255), 2)
         panels.append(img)
     both = np.hstack(panels)
@@ -413,8 +417,8 @@ def run(args: argparse.Namespace) -> int:
         paths = groups[key][: args.limit] if args.limit else groups[key]
         width, height = _image_size(paths[0])
         fixed = None
-        if geo.horizon != "auto":
-            (x0, y0), (x1, y1) = geo.horizon  # type: ignore[misc]
+        if isinstance(geo.horizon, list):
+            (x0, y0), (x1, y1) = geo.horizon
             fixed = (float(x0), float(y0)), (float(x1), float(y1))
         line: tuple[tuple[float, float], tuple[float, float]] | None = None
         dets: dict[str, Detector] = {}
@@ -464,7 +468,8 @@ def main(argv: list[str] | None = None) -> int:
     doc = __doc__ or ""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0], epilog=doc,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--images", type=Path, nargs="+", required=True, help="image folders (searched recursively)")
+    parser.add_argument("--images", type=Path, nargs="+", required=True,
+                        help="image folders (searched recursively)")
     parser.add_argument("--labels", type=Path, default=None, help="label folder (YOLO/VOC) or COCO .json")
     parser.add_argument("--format", choices=("coco", "yolo", "voc"), required=True)
     parser.add_argument("--vessel-classes", nargs="+", required=True,

@@ -12,7 +12,8 @@ from edge.core.seaclutter import A_MAX, CELL_H, CELL_W, cfar_contrast, cfar_hits
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.integers(CELL_H, 24), st.integers(1, 90), st.sampled_from([40, 120, 255]),
+@given(st.integers(0, 2**32 - 1), st.integers(CELL_H, 24), st.integers(1, 90),
+       st.sampled_from([40, 120, 255]),
        st.integers(8, 40))
 def test_integer_equals_float_reference_away_from_the_threshold(seed: int, h: int, w: int, top: int,
                                                                 k4: int) -> None:

@@ -32,7 +32,8 @@ def _sea(det: Detector, rng: np.random.Generator, glitter: float = 0.004) -> np.
     return np.clip(np.round(image), 0, 255).astype(np.uint8)
 
 
-def _hull(image: np.ndarray, det: Detector, x0: int, length: int, height: int, below_px: int = 30) -> np.ndarray:
+def _hull(image: np.ndarray, det: Detector, x0: int, length: int, height: int,
+          below_px: int = 30) -> np.ndarray:
     out = image.copy()
     bottom = int(round(det.horizon_raw[x0])) + below_px
     out[bottom - height:bottom, x0:x0 + length] = 45
