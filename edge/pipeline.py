@@ -42,6 +42,7 @@ from edge.core.triangulation import position_error, triangulate_normalised
 from edge.fix import ShipFix, TrackStatus
 from edge.measure.detect import Detector
 from edge.measure.groundtrack import GroundSettings, GroundTracks, PairFix, column_noise_px, pair_fix
+from edge.measure.seadetect import SeaDetector
 from edge.measure.settings import FILTERS, SUBPIXELS, PointSettings
 from edge.measure.tracks import TableSettings, Track, TrackTable
 
@@ -80,8 +81,9 @@ class Pipeline:
         self.utc_offset_ns = int(utc_offset_ns)
         self.rig = calibration.rig
         self.rect = Rectifier(self.rig)
-        self.detector = Detector(self.rect, site.height_m, decimation=cfg.detect_decimation,
-                                 min_ship_px=cfg.min_ship_px)
+        kind = SeaDetector if exp.detector == "seaclutter" else Detector
+        self.detector = kind(self.rect, site.height_m, decimation=cfg.detect_decimation,
+                             min_ship_px=cfg.min_ship_px)
         self.point_settings = PointSettings(
             fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=exp.cost,
             prefilter=cfg.prefilter, subpixel=subpixel,

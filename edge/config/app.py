@@ -126,6 +126,9 @@ class ExperimentalConfig:
     operators. The defaults are the product; turning the cross-checks off leaves the fixes' sigma
     smaller than their real error, and another filter or cost has not been validated like them."""
 
+    detector: Literal["rowband", "seaclutter"] = setting(
+        "rowband", doc="rowband: contrast against each row band's spread (edge.measure.detect); seaclutter: "
+        "local sea-clutter CFAR on an image pyramid (edge.measure.seadetect, docs/detection-real.md)")
     cost: Literal["zssd", "ssd"] = setting("zssd", doc="zero-mean SSD (robust to gain/offset) or plain SSD")
     filter: Literal["kalman", "butterworth"] = setting("kalman", doc="disparity filter (Butterworth eq. 6.1)")
     butterworth_cutoff_hz: float = setting(0.5, positive=True, doc="cut-off of the Butterworth filter")
