@@ -34,6 +34,7 @@ from edge.alerts.port import PortAlerts
 from edge.config.ais import AisConfig
 from edge.config.app import AppConfig, PipelineConfig, load_config
 from edge.config.calibration import Calibration, recording_calibration
+from edge.config.masks import build_search_mask
 from edge.encode.tracks_csv import CSV_HEADER, csv_row
 from edge.errors import ConfigError
 from edge.fix import ShipFix
@@ -64,7 +65,8 @@ class ReplaySummary:
             f"{self.skipped_pairs}, dropped (sequence gaps) {self.dropped_pairs}, "
             f"skipped (time going back) {self.unordered_pairs}",
             f"pipeline: processed {p.processed}, refused {p.bad_input}, failed {p.failed}, "
-            f"coasted gaps {p.gaps}, detection passes {p.detections}",
+            f"coasted gaps {p.gaps}, detection passes {p.detections}"
+            + (f", detections in site masks {p.masked}" if p.masked else ""),
             f"fixes {p.fixes} from {self.tracks} tracks; NMEA lines {self.nmea_lines}, "
             f"CSV rows {self.csv_rows}",
         ] + ([] if self.ais is None else [
@@ -78,10 +80,13 @@ def open_recording(root: str | Path) -> ReplaySource:
         raise ConfigError(exc.path, "format", f"a mast-stereo recording ({exc.problem})") from None
 
 
-def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | None) -> Pipeline:
-    """The pipeline for a recording: its calibration/site/fps, overridden by `config` where set."""
+def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | None,
+                   config_file: str | Path | None = None) -> Pipeline:
+    """The pipeline for a recording: its calibration/site/fps, overridden by `config` where set
+    (its site masks too; `config_file` names the file in their errors)."""
     cal = recording_calibration(root, source.meta)
     pipeline_cfg = PipelineConfig()
+    mask = None
     if config is not None:
         chosen = config.calibration or cal
         cal = Calibration(chosen.rig, config.effective_site or cal.site, chosen.sigma)
@@ -92,7 +97,9 @@ def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | N
     fps = source.meta.get("fps")
     if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
         raise ConfigError(Path(root) / "meta.yaml", "fps", "a positive frame rate", fps)
-    return Pipeline(cal, pipeline_cfg, fps=float(fps))
+    if config is not None:
+        mask = build_search_mask(config.masks, cal.rig, cal.site, config_file)
+    return Pipeline(cal, pipeline_cfg, fps=float(fps), search_mask=mask)
 
 
 def build_ais(root: str | Path, pipeline: Pipeline, config: AppConfig | None) -> tuple[AisStage, list] | None:
@@ -117,7 +124,7 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
     """Run the pipeline over a recording; write NMEA lines to `nmea` and CSV rows to `tracks`."""
     config = load_config(config_path) if config_path is not None else None
     source = open_recording(root)
-    pipeline = build_pipeline(root, source, config)
+    pipeline = build_pipeline(root, source, config, config_path)
     summary = ReplaySummary(pairs_in_recording=len(source), pipeline=pipeline.counters)
     ais = build_ais(root, pipeline, config)
     ais_next = 0

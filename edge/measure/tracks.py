@@ -127,6 +127,7 @@ class TrackTable:
         self.s = settings
         self.designs = Designs(point_settings)
         self.pointing: Pointing | None = None  # the calibration's standard errors (Pipeline sets it)
+        self.search_mask: np.ndarray | None = None  # raw left image, True: may detect (site masks; Pipeline)
         self.tracks: list[Track] = []
         self.next_id = 1
         self.births = 0
@@ -162,6 +163,7 @@ class TrackTable:
                     track.status, track.lost_since_ns = TrackStatus.LOST, t_ns
         if boxes is not None:
             self._associate(left, right, t_ns, boxes)
+            self._drop_duplicates()
         for track in self.tracks:
             if track.alive:
                 self._lifecycle(track, t_ns)
@@ -222,6 +224,47 @@ class TrackTable:
             if len(self.tracks) < self.s.max_tracks:
                 self._birth(left, right, t_ns, db)
 
+    def _drop_duplicates(self) -> None:
+        """One track per ship: a track whose point sits on another track's ship is dropped.
+
+        A point slides onto another ship when that ship passes in front of the one it followed
+        (akashi-crossing: the near ship's bow crossed the far coaster's point, and the coaster's
+        track followed the bow as a second T track on the near ship, 30 false T fixes in 6 s).
+        Two tracks are one ship when one's point window reaches into the other's box and its
+        disparity lies where the other ship's hull can be: within the other's range plus or minus
+        its length (its box width at its range), widened by 3 sigma of the two filters. Ships in
+        line merge into one blob too, but they stand apart in range by far more than a hull.
+        Only settled filters count (`min_updates` measurements, sigma at most `max_sigma_px`): a
+        newborn's disparity says little. Of the two, the one its detections confirmed more often
+        over the last passes stays (the one on its own blob), the older on a tie; the other is
+        dropped, since its filter's history belongs to the ship it left."""
+        settled = [t for t in self.tracks if t.point.disparity is not None and t.point.disparity > 0.0
+                   and t.point.updates >= self.s.min_updates and t.point.sigma_px <= self.ps.max_sigma_px]
+        if len(settled) < 2:
+            return
+        fb = self.rect.f_px * self.rect.rig.baseline_m
+        for a in settled:
+            for b in settled:
+                if a is b or not (a.alive and b.alive) or not self._same_ship(a, b, fb):
+                    continue
+                rank_a = (sum(a.confirmations), -a.born_ns, -a.id)
+                self._drop(b if rank_a >= (sum(b.confirmations), -b.born_ns, -b.id) else a)
+
+    def _same_ship(self, a: Track, b: Track, fb: float) -> bool:
+        """Whether track b's point lies on track a's ship (see `_drop_duplicates`)."""
+        pa, pb = a.point, b.point
+        assert pa.disparity is not None and pb.disparity is not None
+        half = 0.5 * pb.s.window
+        x0, y0, x1, y1 = a.box.tolist()
+        if not (x0 - half <= pb.u < x1 + half and y0 <= pb.v < y1):
+            return False
+        z_m = fb / pa.disparity
+        length_m = (x1 - x0) * z_m / self.rect.f_px
+        d_far = fb / (z_m + length_m)
+        d_near = fb / (z_m - length_m) if z_m > length_m else math.inf
+        slack = 3.0 * math.hypot(pa.sigma_px, pb.sigma_px)
+        return d_far - slack <= pb.disparity <= d_near + slack
+
     def _confirm_start(self, track: Track, box: np.ndarray, left: np.ndarray) -> bool:
         """The first half of a track's confirmation by its box (`_associate` runs the halves for all
         its tracks, their slope tests answered together between them); whether it wants the slope
@@ -277,6 +320,8 @@ class TrackTable:
         return ship_window(patch, (bx0, by0), tuple(box), m)
 
     def _birth(self, left: np.ndarray, right: np.ndarray, t_ns: int, box: np.ndarray) -> None:
+        if self.search_mask is not None and self.masked(box):
+            return  # no track is born in a site mask
         window = self._ship_window(left, box)
         u, v = self._reference(left, box, window)
         point = TrackPoint(u, v, self.ps, self.designs, window)
@@ -292,6 +337,17 @@ class TrackTable:
                                  max(1, round(CONFIDENCE_S * self.ps.fps))))
         self.next_id += 1
         self.births += 1
+
+    def masked(self, box: np.ndarray) -> bool:
+        """Whether a rectified box's waterline (its bottom row's centre) lies in a site mask."""
+        if self.search_mask is None:
+            return False
+        raw = self.rect.rect_to_raw(np.array([0.5 * (box[0] + box[2]), box[3] - 1.0]), 0)
+        if not np.isfinite(raw).all():
+            return True
+        h, w = self.search_mask.shape
+        u, v = min(w - 1, max(0, int(round(raw[0])))), min(h - 1, max(0, int(round(raw[1]))))
+        return not bool(self.search_mask[v, u])
 
     def _reference(self, left: np.ndarray, box: np.ndarray, window: int | None = None) -> tuple[float, float]:
         return self._candidates(left, box, 1, window)[0]
