@@ -152,7 +152,7 @@ class Pipeline:
             self.counters.gaps += skipped
         self._last_t_ns = t_ns
         self._since_detect += 1 + skipped
-        boxes = None
+        boxes, weak = None, None
         if self._since_detect >= min(self.cfg.detect_every, max(1, int(MAX_DETECT_INTERVAL_S * self.fps))):
             self._since_detect = 0
             self.counters.detections += 1
@@ -162,7 +162,9 @@ class Pipeline:
                 self.counters.masked += len(blobs) - len(kept)
                 blobs = kept
             boxes = self._rect_boxes([(b.x0, b.y0, b.x1, b.y1) for b in blobs])
-        tracks = self.table.step(left, right, t_ns, skipped, boxes)
+            # a blob the detector calls weak (`weak` true) waits until it persists (edge.measure.candidates)
+            weak = [bool(getattr(b, "weak", False)) for b in blobs]
+        tracks = self.table.step(left, right, t_ns, skipped, boxes, weak)
         return self._fixes(tracks, t_ns)
 
     def _rect_boxes(self, raw: list[tuple[int, int, int, int]]) -> list[np.ndarray]:

@@ -50,6 +50,7 @@ from edge.fix import TrackStatus
 from edge.measure.anchor import reference_points, ship_window, spanning_width
 from edge.measure.batch import answer_all, step_points, stereo_request
 from edge.measure.boxes import contains, inside, overlaps
+from edge.measure.candidates import CandidatePool
 from edge.measure.detect import sea_range_at
 from edge.measure.point import TrackPoint
 from edge.measure.ranging import Designs
@@ -79,6 +80,8 @@ class TableSettings:
     max_ship_length_m: float = 400.0  # the point may be this much farther than the waterline's nearest
     min_height_m: float = 1.0  # a track's point must stand this far above the sea to become T
     min_updates: int = 5  # ... and its filter have taken this many measurements since it (re)started
+    candidate_hits: int = 3  # a weak detection is born once seen in this many ...
+    candidate_passes: int = 5  # ... of the last this many detection passes (edge.measure.candidates)
 
 
 class Track:
@@ -128,6 +131,7 @@ class TrackTable:
         self.designs = Designs(point_settings)
         self.pointing: Pointing | None = None  # the calibration's standard errors (Pipeline sets it)
         self.search_mask: np.ndarray | None = None  # raw left image, True: may detect (site masks; Pipeline)
+        self.candidates = CandidatePool(settings.candidate_hits, settings.candidate_passes, MIN_OVERLAP)
         self.tracks: list[Track] = []
         self.next_id = 1
         self.births = 0
@@ -135,9 +139,11 @@ class TrackTable:
 
     # ------------------------------------------------------------ per pair
     def step(self, left: np.ndarray, right: np.ndarray, t_ns: int, skipped: int = 0,
-             boxes: list[np.ndarray] | None = None) -> list[Track]:
+             boxes: list[np.ndarray] | None = None, weak: list[bool] | None = None) -> list[Track]:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
-        [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
+        [x0, y0, x1, y1] of this pair's detections) are given. `weak` flags the boxes the detector
+        was unsure of: they confirm tracks like any other, but are born only once they persist
+        (`edge.measure.candidates`). Returns the live tracks."""
         if boxes:
             self._box_steps(boxes, skipped)
         # every track's follow and match of this pair batched (edge.measure.batch; = point.step per track)
@@ -162,7 +168,7 @@ class TrackTable:
                 elif track.status is TrackStatus.TRACKING:
                     track.status, track.lost_since_ns = TrackStatus.LOST, t_ns
         if boxes is not None:
-            self._associate(left, right, t_ns, boxes)
+            self._associate(left, right, t_ns, boxes, weak or [False] * len(boxes))
             self._drop_duplicates()
         for track in self.tracks:
             if track.alive:
@@ -190,7 +196,8 @@ class TrackTable:
             share = min(max((p.u - old[0]) / max(old[2] - old[0], 1.0), 0.0), 1.0)
             p.box_step_px = float((new[0] - old[0]) * (1.0 - share) + (new[2] - old[2]) * share) / pairs
 
-    def _associate(self, left: np.ndarray, right: np.ndarray, t_ns: int, boxes: list[np.ndarray]) -> None:
+    def _associate(self, left: np.ndarray, right: np.ndarray, t_ns: int, boxes: list[np.ndarray],
+                   weak: list[bool]) -> None:
         tracks = self.tracks
         confirmed = [False] * len(tracks)
         taken = [False] * len(boxes)
@@ -216,11 +223,17 @@ class TrackTable:
                 confirmed[i] = True
                 track.last_confirmed_ns = t_ns
             track.confirmations.append(confirmed[i])
+        waiting = []
         for j, db in enumerate(boxes):
             if taken[j] or tracks and (
                     bool((overlaps(np.array([t.box for t in tracks]), db[None]) > 0).any())
                     or any(contains(db, t.point.u, t.point.v) for t in tracks)):
                 continue
+            if weak[j]:
+                waiting.append(db)
+            elif len(self.tracks) < self.s.max_tracks:
+                self._birth(left, right, t_ns, db)
+        for db in self.candidates.step(waiting):  # weak ones that persisted (every pass ages the pool)
             if len(self.tracks) < self.s.max_tracks:
                 self._birth(left, right, t_ns, db)
 
