@@ -291,7 +291,8 @@ class AppConfig:
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
     alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # issue 18 (edge/alerts/config.py)
     ais: AisConfig | None = setting(None, doc="AIS input and association (issue 17); null: off")
-    masks: MasksConfig = setting(default_factory=MasksConfig)  # issue 24 (edge/config/masks.py)
+    masks: MasksConfig = setting(default_factory=MasksConfig,
+                                 doc="exclusion zones: no detection, no birth (docs/site-masks.md)")
 
     @property
     def effective_site(self) -> Site | None:
