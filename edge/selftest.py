@@ -33,7 +33,7 @@ from drivers.leds.base import OFF, ON
 from edge.config.app import AppConfig, V4l2Cameras, config_from_dict, load_config
 from edge.config.masks import build_search_mask, sea_grid
 from edge.config.schema import load_yaml
-from edge.core.masks import sea_share_open
+from edge.core.masks import open_sea_share
 from edge.core.match import match_point
 from edge.errors import ConfigError
 from edge.health import Status
@@ -344,7 +344,7 @@ class Selftest:
         except ConfigError as exc:
             return Check("site masks", FAIL, str(exc), "fix the named vertex; `mast-stereo masks` draws them")
         assert mask is not None
-        share = sea_share_open(mask, sea)
+        share = open_sea_share(mask, sea)
         detail = (f"{len(masks.image)} image, {len(masks.geo)} geo polygons; {100 * share:.1f} % of the sea "
                   "below the horizon open to detection")
         if share == 0.0:

@@ -21,7 +21,7 @@ import numpy as np
 
 from edge.config.app import ReplayCameras, load_config
 from edge.config.masks import MasksConfig, build_search_mask, geo_polygons_xz, sea_grid
-from edge.core.masks import horizon_rows, inside_polygon, sea_share_open
+from edge.core.masks import horizon_rows, inside_polygon, open_sea_share
 from edge.errors import ConfigError
 from edge.sources import plan_source
 
@@ -94,7 +94,7 @@ def draw(image: np.ndarray, masks: MasksConfig, mask: np.ndarray, sea_xz: np.nda
         cv2.polylines(out, [line], False, HORIZON_BGR, 1, cv2.LINE_AA)
     scale = max(0.4, w / 1800)
     text = (f"excluded: red; image polygons: yellow; geo: magenta; horizon: green; "
-            f"sea open {100 * sea_share_open(mask, sea_xz):.0f} %")
+            f"sea open {100 * open_sea_share(mask, sea_xz):.0f} %")
     cv2.putText(out, text, (8, int(22 * scale)), cv2.FONT_HERSHEY_SIMPLEX, 0.5 * scale, (255, 255, 255), 1,
                 cv2.LINE_AA)
     return out
@@ -127,6 +127,6 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("command line", "--out", "a writable PNG path", str(args.out))
     print(f"{args.out}: {rig.width}x{rig.height} over {where}; {len(config.masks.image)} image and "
           f"{len(config.masks.geo)} geo masks exclude {100 * float((~mask).mean()):.1f} % of the image, "
-          f"{100 * (1 - sea_share_open(mask, sea_xz)):.1f} % of the sea")
+          f"{100 * (1 - open_sea_share(mask, sea_xz)):.1f} % of the sea")
     return 0
 

@@ -191,7 +191,7 @@ def search_mask(width: int, height: int, image_polygons: Sequence[np.ndarray],
     return ~excluded
 
 
-def sea_share_open(mask: np.ndarray, sea_xz: np.ndarray) -> float:
+def open_sea_share(mask: np.ndarray, sea_xz: np.ndarray) -> float:
     """The share of the sea pixels (those whose ray meets the sea) the mask leaves open, in [0, 1]
     (1.0 when no pixel sees the sea)."""
     sea = np.isfinite(sea_xz[..., 1])

@@ -47,11 +47,12 @@ from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.triangulation import triangulate_normalised
 from edge.fix import TrackStatus
-from edge.measure.anchor import reference_points, ship_window, spanning_width
+from edge.measure.anchor import ship_points, ship_window, spanning_width
 from edge.measure.batch import answer_all, step_points, stereo_request
-from edge.measure.boxes import contains, inside, overlaps
+from edge.measure.boxes import contains, inside, overlaps, waterline_masked
 from edge.measure.candidates import CandidatePool
 from edge.measure.detect import sea_range_at
+from edge.measure.oneship import Held, duplicates
 from edge.measure.point import TrackPoint
 from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
@@ -63,8 +64,6 @@ SLOPE_ROWS = 4  # rows above and below the point for that test
 ROW_SIGMA_PX = 0.5  # row uncertainty (height above the sea) when the calibration gives no standard errors
 SEARCH_CANDIDATES = 6  # points offered to a track that lost its point on the ship
 WINDOW_VOTES = 3  # detection passes in a row that must call for another window before it changes
-GLINT_SPARE = 4  # extra candidates ranked, so those with glints can go last
-CLIPPED_DN = 250  # a window holding a pixel this bright holds a clipped sun glint
 CONFIDENCE_S = 10.0  # a track's confidence is its measured share of the pairs of this long
 
 
@@ -80,8 +79,8 @@ class TableSettings:
     max_ship_length_m: float = 400.0  # the point may be this much farther than the waterline's nearest
     min_height_m: float = 1.0  # a track's point must stand this far above the sea to become T
     min_updates: int = 5  # ... and its filter have taken this many measurements since it (re)started
-    candidate_hits: int = 3  # a weak detection is born once seen in this many ...
-    candidate_passes: int = 5  # ... of the last this many detection passes (edge.measure.candidates)
+    candidate_hits: int = 3  # a weak detection is born once seen in this many of the last ...
+    candidate_passes: int = 5  # ... detection passes (edge.measure.candidates)
 
 
 class Track:
@@ -141,9 +140,8 @@ class TrackTable:
     def step(self, left: np.ndarray, right: np.ndarray, t_ns: int, skipped: int = 0,
              boxes: list[np.ndarray] | None = None, weak: list[bool] | None = None) -> list[Track]:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
-        [x0, y0, x1, y1] of this pair's detections) are given. `weak` flags the boxes the detector
-        was unsure of: they confirm tracks like any other, but are born only once they persist
-        (`edge.measure.candidates`). Returns the live tracks."""
+        [x0, y0, x1, y1] of this pair's detections) are given (`weak` ones: the candidate pool first).
+        Returns the live tracks."""
         if boxes:
             self._box_steps(boxes, skipped)
         # every track's follow and match of this pair batched (edge.measure.batch; = point.step per track)
@@ -169,7 +167,7 @@ class TrackTable:
                     track.status, track.lost_since_ns = TrackStatus.LOST, t_ns
         if boxes is not None:
             self._associate(left, right, t_ns, boxes, weak or [False] * len(boxes))
-            self._drop_duplicates()
+            self._drop_duplicates()  # one track per ship (edge.measure.oneship)
         for track in self.tracks:
             if track.alive:
                 self._lifecycle(track, t_ns)
@@ -223,7 +221,7 @@ class TrackTable:
                 confirmed[i] = True
                 track.last_confirmed_ns = t_ns
             track.confirmations.append(confirmed[i])
-        waiting = []
+        waiting = []  # weak boxes for the candidate pool
         for j, db in enumerate(boxes):
             if taken[j] or tracks and (
                     bool((overlaps(np.array([t.box for t in tracks]), db[None]) > 0).any())
@@ -238,45 +236,12 @@ class TrackTable:
                 self._birth(left, right, t_ns, db)
 
     def _drop_duplicates(self) -> None:
-        """One track per ship: a track whose point sits on another track's ship is dropped.
-
-        A point slides onto another ship when that ship passes in front of the one it followed
-        (akashi-crossing: the near ship's bow crossed the far coaster's point, and the coaster's
-        track followed the bow as a second T track on the near ship, 30 false T fixes in 6 s).
-        Two tracks are one ship when one's point window reaches into the other's box and its
-        disparity lies where the other ship's hull can be: within the other's range plus or minus
-        its length (its box width at its range), widened by 3 sigma of the two filters. Ships in
-        line merge into one blob too, but they stand apart in range by far more than a hull.
-        Only settled filters count (`min_updates` measurements, sigma at most `max_sigma_px`): a
-        newborn's disparity says little. Of the two, the one its detections confirmed more often
-        over the last passes stays (the one on its own blob), the older on a tie; the other is
-        dropped, since its filter's history belongs to the ship it left."""
         settled = [t for t in self.tracks if t.point.disparity is not None and t.point.disparity > 0.0
                    and t.point.updates >= self.s.min_updates and t.point.sigma_px <= self.ps.max_sigma_px]
-        if len(settled) < 2:
-            return
-        fb = self.rect.f_px * self.rect.rig.baseline_m
-        for a in settled:
-            for b in settled:
-                if a is b or not (a.alive and b.alive) or not self._same_ship(a, b, fb):
-                    continue
-                rank_a = (sum(a.confirmations), -a.born_ns, -a.id)
-                self._drop(b if rank_a >= (sum(b.confirmations), -b.born_ns, -b.id) else a)
-
-    def _same_ship(self, a: Track, b: Track, fb: float) -> bool:
-        """Whether track b's point lies on track a's ship (see `_drop_duplicates`)."""
-        pa, pb = a.point, b.point
-        assert pa.disparity is not None and pb.disparity is not None
-        half = 0.5 * pb.s.window
-        x0, y0, x1, y1 = a.box.tolist()
-        if not (x0 - half <= pb.u < x1 + half and y0 <= pb.v < y1):
-            return False
-        z_m = fb / pa.disparity
-        length_m = (x1 - x0) * z_m / self.rect.f_px
-        d_far = fb / (z_m + length_m)
-        d_near = fb / (z_m - length_m) if z_m > length_m else math.inf
-        slack = 3.0 * math.hypot(pa.sigma_px, pb.sigma_px)
-        return d_far - slack <= pb.disparity <= d_near + slack
+        held = [Held(t.box, t.point.u, t.point.v, float(t.point.disparity or 0.0), t.point.sigma_px,
+                     t.point.s.window, (sum(t.confirmations), -t.born_ns, -t.id)) for t in settled]
+        for i in sorted(duplicates(held, self.rect.f_px, self.rect.f_px * self.rect.rig.baseline_m)):
+            self._drop(settled[i])
 
     def _confirm_start(self, track: Track, box: np.ndarray, left: np.ndarray) -> bool:
         """The first half of a track's confirmation by its box (`_associate` runs the halves for all
@@ -333,7 +298,7 @@ class TrackTable:
         return ship_window(patch, (bx0, by0), tuple(box), m)
 
     def _birth(self, left: np.ndarray, right: np.ndarray, t_ns: int, box: np.ndarray) -> None:
-        if self.search_mask is not None and self.masked(box):
+        if self.search_mask is not None and waterline_masked(self.search_mask, self.rect, box):
             return  # no track is born in a site mask
         window = self._ship_window(left, box)
         u, v = self._reference(left, box, window)
@@ -351,47 +316,13 @@ class TrackTable:
         self.next_id += 1
         self.births += 1
 
-    def masked(self, box: np.ndarray) -> bool:
-        """Whether a rectified box's waterline (its bottom row's centre) lies in a site mask."""
-        if self.search_mask is None:
-            return False
-        raw = self.rect.rect_to_raw(np.array([0.5 * (box[0] + box[2]), box[3] - 1.0]), 0)
-        if not np.isfinite(raw).all():
-            return True
-        h, w = self.search_mask.shape
-        u, v = min(w - 1, max(0, int(round(raw[0])))), min(h - 1, max(0, int(round(raw[1]))))
-        return not bool(self.search_mask[v, u])
-
     def _reference(self, left: np.ndarray, box: np.ndarray, window: int | None = None) -> tuple[float, float]:
         return self._candidates(left, box, 1, window)[0]
 
     def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES,
                     window: int | None = None) -> list:
-        """The best-textured points in the upper part of a (rectified) ship box, best first, for
-        `window` (default the configured one; a track's own, edge.measure.anchor.ship_window).
-
-        Two kinds of window are avoided: (1) one across the bow or stern outline holds the sea
-        behind the ship, at another range, and its disparity is a mix of the two (a ship wider
-        than a window keeps its centres half a window inside its ends); (2) one holding clipped
-        pixels: a sun glint, the brightest texture there is, seen by one camera only and gone
-        within a few pairs (such windows come after all others, so a ship that is all glare
-        still gets a point)."""
-        window = window or self.ps.window
-        h = window // 2
-        x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
-        x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
-        ox, oy = x0 - h - 1, y0 - h - 1
-        patch = self.rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
-        cx0, cx1 = (x0 + h, x1 - h) if x1 - x0 > 2 * h + 1 else (x0, x1)
-        clipped = patch >= CLIPPED_DN
-        if not clipped.any():
-            return reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count)
-        points = reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count + GLINT_SPARE)
-        glare = [bool(clipped[int(v) - oy - h:int(v) - oy + h + 1, int(u) - ox - h:int(u) - ox + h + 1].any())
-                 for u, v in points]
-        ranked = [p for p, g in zip(points, glare, strict=True) if not g] + \
-            [p for p, g in zip(points, glare, strict=True) if g]
-        return ranked[:count]
+        """`edge.measure.anchor.ship_points` for `window` (default the configured one)."""
+        return ship_points(self.rect, left, box, window or self.ps.window, count)
 
     def _on_the_sea(self, disparity_px: float, box: np.ndarray) -> bool:
         """Is the measured disparity possible for a ship whose waterline is the box's bottom row?

@@ -21,7 +21,7 @@ from edge.core.masks import (
     polygon_problem,
     sea_pixel_grid,
     sea_points,
-    sea_share_open,
+    open_sea_share,
     search_mask,
 )
 
@@ -157,8 +157,8 @@ def test_sea_polygon_masks_the_sea_behind_it_and_never_the_sky() -> None:
     assert mask[int(round(uv_far[1])), int(round(uv_far[0]))]
     assert mask[int(round(uv_side[1])), int(round(uv_side[0]))]
     assert mask[: int(rows[W // 2]) - 1].all()  # the sky is never in a sea polygon
-    assert 0.0 < sea_share_open(mask, sea) < 1.0
+    assert 0.0 < open_sea_share(mask, sea) < 1.0
     everything = search_mask(
         W, H, [np.array([[0.0, 0.0], [W - 1.0, 0.0], [W - 1.0, H - 1.0], [0.0, H - 1.0]])], [], None
     )
-    assert sea_share_open(everything, sea) == 0.0
+    assert open_sea_share(everything, sea) == 0.0

@@ -14,6 +14,7 @@ from edge.core.rectify import Rectifier
 from edge.evaluate import metrics as em
 from edge.evaluate.report import load_ships
 from edge.fix import TrackStatus
+from edge.measure.boxes import waterline_masked
 from edge.measure.candidates import CandidatePool
 from edge.measure.settings import PointSettings
 from edge.measure.tracks import TableSettings, TrackTable
@@ -95,7 +96,8 @@ def test_waterline_open_reads_the_bottom_centre() -> None:
     mask[200:, :] = False
     assert waterline_open(mask, 100, 140, 200) and not waterline_open(mask, 100, 140, 201)
     table = _table(mask)
-    assert table.masked(np.array([100.0, 180.0, 140.0, 205.0])) and not table.masked(BOX)
+    assert waterline_masked(mask, table.rect, np.array([100.0, 180.0, 140.0, 205.0]))
+    assert not waterline_masked(mask, table.rect, BOX)
 
 
 def test_no_track_is_born_inside_a_mask(recording) -> None:
