@@ -2,7 +2,7 @@
 
 The pipeline emits one `ShipFix` per live track and pair; NMEA, Modbus and the
 tracks CSV are all written from it. Times are UTC nanoseconds of the
-measurement (not of sending); positions are in the world frame of SPEC.md
+measurement (not of sending); positions are in the rig frame of docs/method.md ("Frames and units")
 (origin at the baseline midpoint, X right, Y down, Z forward) and on WGS-84.
 Unknown values are ``None`` so that outputs can leave them empty, never 0.
 """
@@ -48,3 +48,4 @@ class ShipFix:
     # the ground-plane filter's state once its speed is known (SOG shown), for CPA/TCPA (issue 18):
     en_state: tuple[float, float, float, float] | None = None  # east m, north m, v east m/s, v north m/s
     en_cov: tuple[float, ...] | None = None  # its 4x4 covariance, row-major (16 values, m and m/s)
+    sigma_across_m: float | None = None  # the share of sigma_m across the line of sight (bearing), m

@@ -1,4 +1,4 @@
-"""Pipeline: FramePair -> list[ShipFix], the whole measurement chain of DESIGN.md.
+"""Pipeline: FramePair -> list[ShipFix], the whole measurement chain of docs/design.md.
 
     detect (every k-th pair, decimated left image)     edge.measure.detect
     -> TrackTable: associate, birth/confirm/coast/drop  edge.measure.tracks
@@ -70,6 +70,7 @@ class Pipeline:
                  site: Site | None = None, subpixel: str = PointSettings.subpixel, filter: str | None = None,
                  utc_offset_ns: int = 0, search_mask: np.ndarray | None = None) -> None:
         cfg = config or PipelineConfig()
+        exp = cfg.experimental  # research switches: the defaults are the product
         site = site or calibration.site
         if site is None:
             raise ValueError("the pipeline needs a site (lat/lon/height/heading) for positions")
@@ -82,12 +83,11 @@ class Pipeline:
         self.detector = Detector(self.rect, site.height_m, decimation=cfg.detect_decimation,
                                  min_ship_px=cfg.min_ship_px)
         self.point_settings = PointSettings(
-            fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=cfg.cost,
+            fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=exp.cost,
             prefilter=cfg.prefilter, subpixel=subpixel,
-            filter=filter or cfg.filter, butterworth_cutoff_hz=cfg.butterworth_cutoff_hz,
-            gate_sigma=cfg.gate_sigma, reacquire_s=cfg.coast_s, baseline_m=self.rig.baseline_m,
-            focal_px=self.rect.f_px, alias_check=cfg.alias_check,
-            depth_check=cfg.depth_check)
+            filter=filter or exp.filter, butterworth_cutoff_hz=exp.butterworth_cutoff_hz,
+            gate_sigma=exp.gate_sigma, reacquire_s=cfg.coast_s, baseline_m=self.rig.baseline_m,
+            focal_px=self.rect.f_px, alias_check=exp.alias_check, depth_check=exp.depth_check)
         self.table = TrackTable(self.rect, site.height_m, self.point_settings,
                                 TableSettings(coast_s=cfg.coast_s, max_tracks=cfg.max_tracks,
                                               waterline_tol_px=2.0 + 2.0 * cfg.detect_decimation))
@@ -200,7 +200,7 @@ class Pipeline:
         # the filter's sigma and, in quadrature, the aliasing and depth checks' terms (0 when they are off)
         sigma_d = np.array([math.hypot(t.point.sigma_px, t.point.alias_sigma_px, t.point.depth_sigma_px)
                             for t in live])
-        sigma_m = self._sigma_m(world, xy_l, d, sigma_d, range_m)
+        sigma_m, across_m = self._sigmas_m(world, xy_l, d, sigma_d, range_m)
         lat, lon, _ = world_to_latlon(world, self.site)
         self._ground_step(tracks, t_ns)
         motions = [self.ground.motion(t.id) for t in live]
@@ -211,9 +211,10 @@ class Pipeline:
         # per-fix values as Python floats in one call per array (the same doubles as float(a[i]), without
         # a numpy scalar per field and fix)
         rows = zip(live, motions, world.tolist(), *(a.tolist() for a in (range_m, bearing, lat, lon, sog, cog,
-                                                                          sigma_m, d)), strict=True)
+                                                                          sigma_m, across_m, d)),
+                   strict=True)
         fixes = []
-        for t, mo, (x_m, y_m, z_m), r_m, brg, la, lo, sog_kn, cog_deg, sig_m, d_px in rows:
+        for t, mo, (x_m, y_m, z_m), r_m, brg, la, lo, sog_kn, cog_deg, sig_m, across, d_px in rows:
             # speed and course from the ground-plane filter, withheld (None: empty in TTM, "unknown"
             # on Modbus) until their 1-sigma meets the configured bound
             sog_ok, cog_ok = mo is not None and mo.sog_ok, mo is not None and mo.cog_ok
@@ -229,22 +230,29 @@ class Pipeline:
                 sog_sigma_kn=mo.sog_sigma_kn if mo is not None and sog_ok else None,
                 cog_sigma_deg=mo.cog_sigma_deg if mo is not None and cog_ok else None,
                 en_state=None if en is None else tuple(en[0].tolist()),
-                en_cov=None if en is None else tuple(en[1].ravel().tolist())))
+                en_cov=None if en is None else tuple(en[1].ravel().tolist()), sigma_across_m=across))
         return fixes
 
     def _sigma_m(self, world: np.ndarray, xy_l: np.ndarray, d: np.ndarray, sigma_d: np.ndarray,
                  range_m: np.ndarray) -> np.ndarray:
-        """Each fix's 1-sigma, m: along the line of sight eq. 4.5's range error (its far side, the
-        larger) for the filter's disparity sigma and the calibration's disparity share in quadrature,
-        across it the range times the calibration's column sigma over f (the bearing;
-        edge.core.calibsigma). Without calibration standard errors or a tilt bound the bearing
-        share is 0 and this is eq. 4.5 alone."""
+        """Each fix's 1-sigma, m (the first of `_sigmas_m`)."""
+        return self._sigmas_m(world, xy_l, d, sigma_d, range_m)[0]
+
+    def _sigmas_m(self, world: np.ndarray, xy_l: np.ndarray, d: np.ndarray, sigma_d: np.ndarray,
+                  range_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each fix's 1-sigma and its share across the line of sight, m: along the line of sight
+        eq. 4.5's range error (its far side, the larger) for the filter's disparity sigma and the
+        calibration's disparity share in quadrature, across it the range times the calibration's
+        column sigma over f (the bearing; edge.core.calibsigma); the 1-sigma is both in quadrature.
+        Without calibration standard errors or a tilt bound the bearing share is 0 and this is
+        eq. 4.5 alone. The across share lets ASTERIX I010/500 state an ellipse, not a circle."""
         f, b = self.rect.f_px, self.rig.baseline_m
         _, col_px, disp_px = self.pointing.sigmas(xy_l[..., 0], xy_l[..., 1], d)
         err = position_error(world, np.hypot(sigma_d, disp_px) / f, b)  # eq. 4.5
         along = np.hypot(err[..., 0], err[..., 2])
-        sigma_m = np.hypot(along, range_m * col_px / f)
-        return np.where(np.isfinite(err).all(axis=-1), sigma_m, math.inf)
+        across = range_m * col_px / f
+        sigma_m = np.hypot(along, across)
+        return np.where(np.isfinite(err).all(axis=-1), sigma_m, math.inf), across
 
     def _ground_step(self, tracks: list[Track], t_ns: int) -> None:
         """Each track's own measurement of this pair into its ground-plane filter

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from edge.config.schema import load_yaml
-from edge.sim.batch import write_recording
+from edge.sim.render_recording import write_recording
 from edge.sim.scenario import scenario_from_dict, scenario_path
 from edge.sim.simulator import Simulation
 

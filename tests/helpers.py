@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 
 # a TCP port on 127.0.0.1 nothing listens on: the fault rig's, re-exported for the tests
-from edge.faults._rig import free_port as free_port
+from lab.faults._rig import free_port as free_port
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -2,13 +2,18 @@
 # idempotently, and quickly when everything is already there.
 #  - as root: Debian packages needed to build systemd-python (libsystemd-dev, pkg-config)
 #    and the real peers the tests talk to (socat for pty pairs, mbpoll as an independent
-#    Modbus client);
-#  - a venv in .venv with the project installed editable, with the test and plots extras.
+#    Modbus client, tshark as an independent ASTERIX decoder; g++ builds asterix-decoder);
+#  - a venv in .venv with the project installed editable, with the test, plots and docs extras.
 set -euo pipefail
+# `TOOL -h|--help`: the calling tool's header comment (its usage), before anything is installed.
+if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
+    sed -n '2,/^[^#]/p' "$0" | sed -e '/^[^#]/d' -e 's/^# \{0,1\}//'
+    exit 0
+fi
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 
-APT_PACKAGES=(libsystemd-dev pkg-config socat mbpoll)
+APT_PACKAGES=(libsystemd-dev pkg-config socat mbpoll tshark g++)
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -61,7 +66,11 @@ want="$(cat pyproject.toml | sha256sum | cut -d' ' -f1)"
 if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$want" ]]; then
     echo "setup: installing the project into .venv" >&2
     .venv/bin/python -m pip install -q --upgrade pip >&2
-    .venv/bin/python -m pip install -q -e ".[test,plots]" >&2
+    .venv/bin/python -m pip install -q -e ".[test,plots,docs]" >&2
     echo "$want" > "$stamp"
 fi
+# The lab package (evaluation, benchmarks, fault injection, fake devices) is not in the wheel: a .pth
+# puts the checkout's root on the venv's path so tests, tools and their child processes import it.
+site="$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
+[[ "$(cat "$site/mast_stereo_lab.pth" 2>/dev/null)" == "$ROOT" ]] || echo "$ROOT" > "$site/mast_stereo_lab.pth"
 export PATH="$ROOT/.venv/bin:$PATH"

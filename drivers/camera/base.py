@@ -31,7 +31,7 @@ import numpy as np
 
 @dataclass(frozen=True, slots=True, eq=False)
 class FramePair:
-    """One stereo pair: left is the reference image (DESIGN.md)."""
+    """One stereo pair: left is the reference image (docs/design.md)."""
 
     left: np.ndarray  # (H, W) uint8 grey, or (H, W, 3) BGR
     right: np.ndarray

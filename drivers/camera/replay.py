@@ -1,4 +1,4 @@
-"""Frame pairs from a recording directory (the format in DESIGN.md), optionally at the recorded pace.
+"""Frame pairs from a recording directory (the format of docs/recordings.md), optionally at the recorded pace.
 
 ```
 meta.yaml    format: 1, fps, width, height, calibration: {...}, site: {...}, notes

@@ -8,7 +8,7 @@ changes. A hung daemon therefore shows a *steady* LED where a live one blinks
 or beats; a kernel trigger would keep blinking over a dead process.
 
 `health_patterns(state, amber=...)` is the pure mapping from the health state
-(OK / DEGRADED / STALLED, the values of `edge.health.HealthState`) to the
+(OK / DEGRADED / STALLED, the values of `edge.appliance.health.HealthState`) to the
 patterns: OK = green heartbeat, DEGRADED = amber blinking (the amber LED, or
 green and red blinking together when there is none), STALLED = steady red.
 

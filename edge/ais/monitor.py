@@ -10,7 +10,7 @@ it is associated with:
                   (a narrow deckhouse) and the hull's side (bridge wings), and half way is the
                   unbiased guess for a point known only to lie between them. The near side itself
                   left -0.029 px with no drift on the 2048-px renders, whose deckhouses are
-                  narrower than the beam (README, AIS);
+                  narrower than the beam (docs/accuracy.md, AIS);
   disparity       residual r_d = d_measured - f L_B / Z_expected (eq. 2.12), Z the world depth;
                   a right-camera yaw error of e rad shifts every disparity by f e px, whatever the
                   range, so a constant offset is what drift looks like (0.002 deg at f = 2600 px:

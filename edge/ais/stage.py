@@ -32,15 +32,6 @@ log = logging.getLogger(__name__)
 Geometry = Callable[[int], tuple[np.ndarray, np.ndarray] | None]  # track id -> (east/north, cov)
 
 
-def feed_until(stage: AisStage, lines: Sequence[tuple[int, str]], index: int, t_ns: int) -> int:
-    """Feed `lines[index:]` received at or before `t_ns` (a recording's ais.csv, in order); the
-    index of the next line. Replay and evaluation use it; the daemon drains its driver instead."""
-    while index < len(lines) and lines[index][0] <= t_ns:
-        stage.feed(*lines[index])
-        index += 1
-    return index
-
-
 class AisStage:
     """Decoder, target table, association and monitor of one appliance."""
 

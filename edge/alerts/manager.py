@@ -45,10 +45,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from edge.alerts.config import AlertsConfig
+from edge.appliance.health import HealthSnapshot, HealthState, Status
+from edge.config.alerts import AlertsConfig
 from edge.core.cpa import pair_cpa
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthSnapshot, HealthState, Status
 
 MIN_UPDATES = 3  # a condition needs this many updates in a row besides confirm_s
 MAX_LENGTH_M = 400.0  # a longer apparent length (merged boxes) does not widen the CPA limit

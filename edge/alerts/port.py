@@ -26,8 +26,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Literal
 
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import Alert, AlertId, AlertManager, AlertState, Key
+from edge.config.alerts import AlertsConfig
 from edge.encode.alerts import alc, alf, alr, hbt, parse_acn
 
 Offer = tuple[tuple[str, ...], Callable[[], None]]

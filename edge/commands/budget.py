@@ -1,4 +1,4 @@
-"""`mast-stereo budget`: the error budget of a rig (SPEC.md "Error model"), as a table or JSON.
+"""`mast-stereo budget`: the error budget of a rig (docs/method.md "Error model"), as a table or JSON.
 
     mast-stereo budget --width 720 --fov 43 --baseline 8.14 --delta 0.5 [--json]
         [--tolerance M ...] [--range M ...] [--ship-length M] [--min-pixels N]

@@ -20,7 +20,7 @@ height_m, heading_deg); the four --site-* options give the same inline. The
 site is also written into the calibration. --cx/--cy fix the principal point
 (default: the image centre); --fit-k3 adds the pinhole's k3 term.
 
-Writes CALIB.yaml (the DESIGN.md calibration format, validated by loading it
+Writes CALIB.yaml (the calibration format of docs/calibration.md, validated by loading it
 back), with each camera's `rotation_sigma_deg` and `focal_sigma_px` (the fit's
 standard errors: from its Jacobian and residual variance, edge.core.calibfit),
 which the pipeline carries into the fixes' sigma and the height test's row

@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import fields
 from pathlib import Path
 
-from edge.config.app import AppConfig, V4l2Cameras, load_config
+from edge.config.app import AppConfig, ExperimentalConfig, V4l2Cameras, load_config
 from edge.config.calibration import Calibration, load_calibration
 from edge.core.calibfit import relative_rotation_deg
 from edge.core.site import Site
@@ -72,9 +73,14 @@ def describe_config(cfg: AppConfig) -> list[str]:
     lines.append(f"site: {_site(site)}" if site is not None else "site: from the scenario / recording")
     p = cfg.pipeline
     lines.append(
-        f"pipeline: window {p.window}, max disparity {p.max_disparity}, {p.cost}, filter {p.filter}, "
+        f"pipeline: window {p.window}, max disparity {p.max_disparity}, "
         f"detect every {p.detect_every}, up to {p.max_tracks} tracks"
     )
+    changed = {f.name: getattr(p.experimental, f.name) for f in fields(p.experimental)
+               if getattr(p.experimental, f.name) != getattr(ExperimentalConfig(), f.name)}
+    if changed:  # research switches away from the product: say so where a technician looks
+        lines.append("experimental (not the validated product): "
+                     + ", ".join(f"{k} {v}" for k, v in changed.items()))
     for i, port in enumerate(cfg.outputs.nmea):
         lines.append(
             f"nmea[{i}]: {port.url} {port.baud} {port.bytesize}{port.parity}{port.stopbits}, "

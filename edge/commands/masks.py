@@ -19,11 +19,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from edge.appliance.sources import plan_source
 from edge.config.app import ReplayCameras, load_config
 from edge.config.masks import MasksConfig, build_search_mask, geo_polygons_xz, sea_grid
 from edge.core.masks import horizon_rows, inside_polygon, open_sea_share
 from edge.errors import ConfigError
-from edge.sources import plan_source
 
 EXCLUDED_BGR = (0, 0, 255)
 IMAGE_BGR = (0, 255, 255)

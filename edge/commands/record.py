@@ -1,9 +1,9 @@
 """`mast-stereo record --config FILE --out RECORDING (--seconds N | --frames N) [--force]`.
 
-Captures pairs from the configured cameras into a recording (DESIGN.md) that `mast-stereo replay`
+Captures pairs from the configured cameras into a recording (docs/recordings.md) that `mast-stereo replay`
 reads. The configuration is loaded and the source planned exactly as the daemon does
 (`plan_source`), so a bad configuration exits 78 before any device opens or any file is written.
-The capture and the writing are edge/record.py's: PNGs on a writer thread, every pair all or
+The capture and the writing are edge/recording/capture.py's: PNGs on a writer thread, every pair all or
 nothing on disk, the recording clock starting at 0, the cameras' sequence numbers kept.
 
 Exit status (the recording replays up to its last complete pair in every case but 73 and 78):
@@ -27,12 +27,12 @@ import threading
 from pathlib import Path
 from types import FrameType
 
+from edge.appliance.sources import plan_source
 from edge.config.app import load_config
 from edge.errors import EX_CONFIG
-from edge.record import SIGNALLED, SOURCE_FAILED, WRITE_FAILED, WRONG_SIZE, RecordingFiles, record
-from edge.sim.batch import ProgressBar
-from edge.sim.recording import build_meta
-from edge.sources import plan_source
+from edge.recording.capture import SIGNALLED, SOURCE_FAILED, WRITE_FAILED, WRONG_SIZE, record
+from edge.recording.format import RecordingWriter, build_meta
+from edge.sim.render_recording import ProgressBar
 
 EX_UNAVAILABLE, EX_CANTCREAT, EX_IOERR = 69, 73, 74
 PROG = "mast-stereo record"
@@ -78,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
                                 "started_utc": started.isoformat(timespec="milliseconds"),
                                 "monotonic_stamps": plan.monotonic_stamps})
     try:
-        files = RecordingFiles(args.out, meta, overwrite=args.force)
+        files = RecordingWriter(args.out, meta, overwrite=args.force)
     except OSError as exc:  # FileExistsError included
         print(f"{PROG}: {exc}", file=sys.stderr)
         return EX_CANTCREAT

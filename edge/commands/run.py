@@ -3,12 +3,12 @@
 Loads and checks the configuration, calibration and outputs before opening
 any device (a mistake exits 78 with one line naming file and key; so does a
 configuration or calibration file that others can write: edge.config.trust), then runs
-`edge.daemon.Appliance` until SIGTERM/SIGINT, the end of a finite source, or
+`edge.appliance.daemon.Appliance` until SIGTERM/SIGINT, the end of a finite source, or
 `--seconds`; SIGHUP reloads the configuration file (`systemctl reload`). READY=1,
 STATUS=, WATCHDOG=1, RELOADING=1 and STOPPING=1 go to systemd when $NOTIFY_SOCKET is
 set; under systemd the log goes to the journal as structured records. `--print-nmea`
 also writes the NMEA sentences to stdout (the demo uses it). `--record DIR` also records the
-processed pairs into a new recording directory (DESIGN.md's format, what `record` writes and
+processed pairs into a new recording directory (docs/recordings.md, what `record` writes and
 `replay` reads); a write failure (a full disk) stops only the recording, shown as a fault on the
 `recording` health stage; a DIR that cannot be created exits 73 before anything opens.
 """
@@ -42,9 +42,9 @@ def run(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     # imported only now: a configuration mistake exits 78 without loading OpenCV, pymodbus and the rest
     from drivers.notify import SystemdNotifier
-    from edge.console import LiveTable
-    from edge.daemon import Appliance
-    from edge.journal import setup_logging
+    from edge.appliance.console import LiveTable
+    from edge.appliance.daemon import Appliance
+    from edge.appliance.journal import setup_logging
     from edge.outputs.nmea_stream import NmeaStreamOutput
 
     setup_logging(config.logging.level)

@@ -13,7 +13,7 @@ import sys
 import time
 
 from edge.errors import EX_CONFIG
-from edge.sim.batch import ProgressBar, default_jobs, write_recording
+from edge.sim.render_recording import ProgressBar, default_jobs, write_recording
 from edge.sim.scenario import SCENARIO_DIR, load_scenario
 from edge.sim.simulator import Simulation
 

@@ -2,5 +2,5 @@
 
 `app` (the appliance configuration), `calibration` (rig and site files, also inside a recording),
 `schema` (dataclass settings loaded from YAML with errors naming file and key), `table` (the
-README's configuration table generated from the schema). Every mistake is a `ConfigError`.
+configuration table of docs/configuration.md, generated from the schema). Every mistake is a `ConfigError`.
 """

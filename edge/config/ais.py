@@ -1,4 +1,4 @@
-"""The optional `ais:` block of the appliance configuration (issue 17): where AIS sentences come
+"""The optional `ais:` block of the appliance configuration (docs/ais.md): where AIS sentences come
 from, how old a position report may be, the association gate, the dark flag and the calibration
 monitor. Absent (`ais: null`, the default) the feature is off and every output is as before.
 

@@ -10,7 +10,7 @@ Every key has a default, and the defaults are the demo: simulated cameras
 running the `akashi-crossing` scenario, Modbus TCP on 127.0.0.1:1502, no
 serial port. `AppConfig()` is therefore a working configuration, and
 config/demo.yaml spells the same thing out. `markdown_table(AppConfig)`
-renders this schema for the README.
+renders this schema for docs/configuration.md.
 
 `calibration` is a path to a calibration YAML (edge.config.calibration) or the same
 mapping inline; when absent, virtual cameras take the scenario's calibration
@@ -25,8 +25,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
-from edge.alerts.config import AlertsConfig
 from edge.config.ais import AisConfig
+from edge.config.alerts import AlertsConfig
+from edge.config.asterix import AsterixConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.masks import MasksConfig, check_image_polygons
 from edge.config.schema import load_dataclass, load_yaml, setting
@@ -121,22 +122,15 @@ class VirtualCameras:
 
 
 @dataclass(frozen=True)
-class PipelineConfig:
-    window: int = setting(15, min=3, max=63, check=_odd, doc="matching window side, px (eq. 3.8)")
-    max_disparity: int = setting(128, min=1, max=2048, doc="disparity search range, px")
+class ExperimentalConfig:
+    """Research switches (`pipeline.experimental`): for measuring alternatives in the lab, not for
+    operators. The defaults are the product; turning the cross-checks off leaves the fixes' sigma
+    smaller than their real error, and another filter or cost has not been validated like them."""
+
     cost: Literal["zssd", "ssd"] = setting("zssd", doc="zero-mean SSD (robust to gain/offset) or plain SSD")
-    prefilter: Literal["none", "xsobel"] = setting(
-        "none", doc="xsobel for real cameras: clipped horizontal Sobel before matching, robust to "
-        "response-curve/vignetting differences; costs accuracy on clean renders"
-    )
-    detect_every: int = setting(5, min=1, max=1000, doc="run ship detection on every k-th pair")
-    detect_decimation: int = setting(2, min=1, max=8, doc="detection works on an image shrunk by this")
-    min_ship_px: int = setting(20, min=2, max=1000, doc="smallest ship length to detect, px (eq. 3.12)")
-    max_tracks: int = setting(32, min=1, max=99, doc="live tracks at most (NMEA numbers 01-99)")
     filter: Literal["kalman", "butterworth"] = setting("kalman", doc="disparity filter (Butterworth eq. 6.1)")
     butterworth_cutoff_hz: float = setting(0.5, positive=True, doc="cut-off of the Butterworth filter")
     gate_sigma: float = setting(3.0, positive=True, doc="innovation gate of the Kalman filter, sigmas")
-    coast_s: float = setting(3.0, min=0.0, max=600.0, doc="a track unseen this long turns lost (L)")
     alias_check: bool = setting(
         True, doc="cross-check every match with a 4-px smaller window and widen the fix's sigma by their "
         "persistent disagreement, at most 0.1 px (aliasing on sharp optics; one more match per track)"
@@ -146,6 +140,21 @@ class PipelineConfig:
         "persistent disagreement with the 15-px match, at most 0.5 px (the depth a near end-on ship spans "
         "in one window; four small matches per track)"
     )
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    window: int = setting(15, min=3, max=63, check=_odd, doc="matching window side, px (eq. 3.8)")
+    max_disparity: int = setting(128, min=1, max=2048, doc="disparity search range, px")
+    prefilter: Literal["none", "xsobel"] = setting(
+        "none", doc="xsobel for real cameras: clipped horizontal Sobel before matching, robust to "
+        "response-curve/vignetting differences; costs accuracy on clean renders"
+    )
+    detect_every: int = setting(5, min=1, max=1000, doc="run ship detection on every k-th pair")
+    detect_decimation: int = setting(2, min=1, max=8, doc="detection works on an image shrunk by this")
+    min_ship_px: int = setting(20, min=2, max=1000, doc="smallest ship length to detect, px (eq. 3.12)")
+    max_tracks: int = setting(32, min=1, max=99, doc="live tracks at most (NMEA numbers 01-99)")
+    coast_s: float = setting(3.0, min=0.0, max=600.0, doc="a track unseen this long turns lost (L)")
     max_sog_sigma_kn: float = setting(
         0.75, positive=True, max=50.0,
         doc="SOG is reported once the ground-plane filter's 1-sigma is at most this, knots (0.75: table 3's "
@@ -154,6 +163,9 @@ class PipelineConfig:
         5.5, positive=True, max=180.0,
         doc="COG is reported once its 1-sigma is at most this (and SOG's meets its bound), degrees (5.5: "
         "table 3's 1-min 11 deg at 95 %)")
+    experimental: ExperimentalConfig = setting(
+        default_factory=ExperimentalConfig,
+        doc="research switches, not for operators: the defaults are the validated product")
 
 
 # ---------------------------------------------------------------- outputs
@@ -234,6 +246,7 @@ class OutputsConfig:
     udp: UdpConfig = setting(default_factory=UdpConfig)
     modbus: ModbusConfig = setting(default_factory=ModbusConfig)
     tracks_csv: str | None = setting(None, doc="append every fix to this CSV file")
+    asterix: AsterixConfig = setting(default_factory=AsterixConfig, doc="ASTERIX CAT 010 over UDP")
 
 
 # ---------------------------------------------------------------- health, logging, top level
@@ -289,8 +302,8 @@ class AppConfig:
     outputs: OutputsConfig = setting(default_factory=OutputsConfig)
     health: HealthConfig = setting(default_factory=HealthConfig)
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
-    alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # issue 18 (edge/alerts/config.py)
-    ais: AisConfig | None = setting(None, doc="AIS input and association (issue 17); null: off")
+    alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # edge/config/alerts.py
+    ais: AisConfig | None = setting(None, doc="AIS input and association (docs/ais.md); null: off")
     masks: MasksConfig = setting(default_factory=MasksConfig,
                                  doc="exclusion zones: no detection, no birth (docs/site-masks.md)")
 
@@ -359,5 +372,5 @@ def load_config(path: str | Path) -> AppConfig:
 
 
 def schema_markdown() -> str:
-    """The configuration reference table for the README."""
+    """The configuration reference table (docs/configuration.md)."""
     return markdown_table(AppConfig)

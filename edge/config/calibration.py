@@ -1,4 +1,4 @@
-"""The calibration file (DESIGN.md): YAML <-> `Calibration` (a `StereoRig` plus an optional `Site`).
+"""The calibration file (docs/calibration.md): YAML <-> `Calibration` (a `StereoRig` plus an optional `Site`).
 
 ```
 baseline_m: 8.14
@@ -10,7 +10,7 @@ cameras:
 site: {lat_deg: .., lon_deg: .., height_m: .., heading_deg: ..}     # optional
 ```
 
-Optional (issue 16; files without them load unchanged): each camera's `rotation_sigma_deg:
+Optional (files without them load unchanged): each camera's `rotation_sigma_deg:
 [s_rx, s_ry, s_rz]` and `focal_sigma_px` (the fit's standard errors, written by `mast-stereo
 calibrate`; both cameras or neither, both keys of a camera or neither), and the site's
 `tilt_sigma_deg` (a 1-sigma bound on the mast's lean, per horizontal axis). They become the
@@ -197,7 +197,7 @@ def _check_invertible(camera: CameraModel, image: _Image, file: Any, key: str) -
 
 
 def calibration_from_dict(data: Any, file: str | Path | None, key_prefix: str = "") -> Calibration:
-    """Validate a calibration mapping (DESIGN.md format) and build the rig; errors name the key."""
+    """Validate a calibration mapping (docs/calibration.md format) and build the rig; errors name the key."""
     spec = load_dataclass(_CalibrationFile, data, file, key_prefix)
     prefix = f"{key_prefix}." if key_prefix else ""
     left = _camera(spec.cameras.left, spec.image, file, f"{prefix}cameras.left")
@@ -254,7 +254,7 @@ def site_to_dict(site: Site) -> dict[str, float]:
 
 
 def calibration_to_dict(cal: Calibration) -> dict[str, Any]:
-    """The DESIGN.md mapping (plain Python floats and lists, ready for yaml.safe_dump)."""
+    """The docs/calibration.md mapping (plain Python floats and lists, ready for yaml.safe_dump)."""
     rig = cal.rig
     out: dict[str, Any] = {
         "baseline_m": float(rig.baseline_m),

@@ -23,7 +23,7 @@ element-wise for sequences), ``choices``, ``pattern`` (full match, strings),
 value returning None or the expectation it failed) and ``load`` (a function
 ``(data, file, key) -> value`` that replaces the typed build for that field).
 ``doc`` and ``accepts`` (overrides the generated description) feed
-`edge.config.table`, which renders a schema as the README's key table.
+`edge.config.table`, which renders a schema as the key table of docs/configuration.md.
 
 Key paths look like ``outputs.nmea[0].baud``. `load_yaml` reads a file with
 a loader that also refuses duplicate keys (PyYAML would keep the last one).

@@ -1,8 +1,8 @@
-"""Render a schema dataclass (edge.config.schema) as a markdown key table for the README.
+"""Render a schema dataclass (edge.config.schema) as a markdown key table (docs/configuration.md).
 
 One row per key path (``outputs.nmea[].baud``): what it accepts (the same
 words the loader uses in its error messages), its default and its ``doc``.
-Generated from the dataclasses, so the README cannot drift from the loader.
+Generated from the dataclasses, so the documentation cannot drift from the loader.
 """
 
 from __future__ import annotations

@@ -5,6 +5,6 @@ sit beside float references; Q-format scale constants live in `fixedpoint`.
 """
 
 from edge.core.match import Match, match_point, match_point_float
-from edge.core.refpoint import PointTrack, track_point
+from edge.core.refpoint import FollowResult, follow_point
 
-__all__ = ["Match", "PointTrack", "match_point", "match_point_float", "track_point"]
+__all__ = ["Match", "FollowResult", "match_point", "match_point_float", "follow_point"]

@@ -1,4 +1,4 @@
-"""Batched matching: the integer searches of many points' `track_point` and `match_point` in a
+"""Batched matching: the integer searches of many points' `follow_point` and `match_point` in a
 few numpy operations, for a pipeline that follows and matches every track once per pair.
 
 Why: a 15x15 window's search is a few thousand multiply-adds, but each numpy call costs
@@ -12,7 +12,7 @@ gates and the sub-pixel fit, so the sub-pixel method of match.py/subpixel.py car
 the parabola fits of the follow read their 3-point curves off the cost square instead of
 recomputing them.
 
-Results are bit-identical to `track_point` / `match_point` with impl="int" (the per-point
+Results are bit-identical to `follow_point` / `match_point` with impl="int" (the per-point
 functions stay the reference; tests/edge/core/test_batchmatch.py checks equality with
 hypothesis): all costs are exact integers in float64 (every partial sum < 2**53, see
 costs.py), so the batched summation order cannot change them. Points the fast path does not
@@ -45,7 +45,14 @@ from edge.core.match import (
     round_half_away,
     search_range,
 )
-from edge.core.refpoint import FollowSite, PointTrack, finish_follow, follow_site, texture_sigmas, track_point
+from edge.core.refpoint import (
+    FollowResult,
+    FollowSite,
+    finish_follow,
+    follow_point,
+    follow_site,
+    texture_sigmas,
+)
 
 # from this many follows on, their parabola fits are vectorised (_axis_fits: ~25 numpy calls); fewer
 # fit them one by one off the cost squares (finish_follow's own path; the same values)
@@ -133,13 +140,13 @@ def _ratios(costs: np.ndarray, is_min: np.ndarray, best: list[int]) -> list[floa
 def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Sequence[float],
                  ys: Sequence[float], predicted_dxs: Sequence[float], predicted_dys: Sequence[float], *,
                  window: int = 15, search_radius: int = 4, subpixel: str = "cancel", noise_dn: float = 1.0,
-                 min_ratio: float = 1.1, max_sigma_px: float = 0.3) -> list[PointTrack]:
-    """`track_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=..., predicted_dy=...)` (impl="int")
+                 min_ratio: float = 1.1, max_sigma_px: float = 0.3) -> list[FollowResult]:
+    """`follow_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=..., predicted_dy=...)` (impl="int")
     for every i, the integer searches batched; bit-identical results."""
     kw: dict[str, Any] = dict(window=window, search_radius=search_radius, subpixel=subpixel,
                               noise_dn=noise_dn, min_ratio=min_ratio, max_sigma_px=max_sigma_px)
     n = len(prevs)
-    out: list[PointTrack | None] = [None] * n
+    out: list[FollowResult | None] = [None] * n
     h, r = window // 2, search_radius
     side = window + 2 * r
     fast: list[tuple[int, FollowSite]] = []
@@ -148,7 +155,7 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
     for i in range(n):
         site = follow_site(prevs[i], curs[i], xs[i], ys[i], window, search_radius, predicted_dxs[i],
                            predicted_dys[i])
-        if isinstance(site, PointTrack):
+        if isinstance(site, FollowResult):
             out[i] = site
             continue
         xi, yi, x0, y0 = site.xi, site.yi, site.xi + site.pu - r - h, site.yi + site.pv - r - h
@@ -167,7 +174,7 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
                 keep.append(k)
                 sigmas.append((sx, sy))
             else:                                       # the reference says why (rare: flat windows)
-                out[i] = track_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=predicted_dxs[i],
+                out[i] = follow_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=predicted_dxs[i],
                                      predicted_dy=predicted_dys[i], **kw)
         if keep:
             every = len(keep) == len(fast)

@@ -1,4 +1,4 @@
-"""The error budget of a stereo rig (SPEC.md "Error model"): what range it can measure, how well.
+"""The error budget of a stereo rig (docs/method.md "Error model"): what range it can measure, how well.
 
 For a rig of image width N pixels, horizontal angle of view theta, baseline
 L_B and matching error delta pixels this computes:

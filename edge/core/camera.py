@@ -123,7 +123,7 @@ class CameraModel(ABC):
 
     @abstractmethod
     def to_dict(self) -> dict:
-        """This camera's entry of the calibration YAML mapping (DESIGN.md)."""
+        """This camera's entry of the calibration YAML mapping (docs/calibration.md)."""
 
     def rotation(self) -> np.ndarray:
         """The 3x3 camera-to-world rotation."""

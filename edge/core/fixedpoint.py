@@ -1,7 +1,7 @@
 """Fixed-point scale constants and the few integer helpers the core's hot paths share.
 
 Every Q format used by the matching and filtering core is defined here, once, so the
-DSP/FPGA port has a single page to read (DESIGN.md, "Fixed-point rules"):
+DSP/FPGA port has a single page to read (docs/design.md, "Fixed point"):
 
 - disparity and sub-pixel positions: Q8 pixels (1 LSB = 1/256 px) at the interfaces,
   Q10 inside the 3-point fits so that averaging two fits and rounding to Q8 stays within

@@ -1,6 +1,6 @@
 """Where a triangulated point is on the Earth: east/north/up, range, true bearing, WGS-84, SOG/COG.
 
-The world frame (SPEC.md) is the rig's local tangent plane at the site: origin
+The rig frame (docs/method.md) is the rig's local tangent plane at the site: origin
 at the baseline midpoint, +Z horizontal along the site heading (true azimuth),
 +X horizontal 90 deg to its right, +Y straight down. East/north/up is
 therefore one rotation about the vertical by the heading, exactly:

@@ -1,6 +1,6 @@
 """WGS-84 latitude/longitude/height <-> the rig's world frame (X right, Y down, Z forward).
 
-The world frame (SPEC.md) has its origin at the baseline midpoint, the site
+The rig frame (docs/method.md) has its origin at the baseline midpoint, the site
 (lat, lon, height above mean sea level); +Z points horizontally along the
 site heading (true azimuth), +X horizontally 90 deg to the right of it, +Y
 straight down. It is the local tangent plane at the site, so the Earth's

@@ -46,7 +46,7 @@ which average over many correlated samples. (Compared at the same difference var
 track's scatter measures, no correlation time fitted the recordings: at 0.15 s approach-720 had
 1.54 RMS(e / sigma) and 91 % within 3 sigma while small-boat-fog fell to 0.53. The error is not one
 AR(1) process, and the ladder's rung already sits above the scatter. corr_s is therefore a
-fitted figure, docs/decisions.md. `edge.measure.ranging` adds, for a design below the configured
+fitted figure, docs/decisions.md. `edge.measure.filter_designs` adds, for a design below the configured
 acceleration, the share rho of the configured design's steady-state variance as a floor.)
 """
 

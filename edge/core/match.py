@@ -1,7 +1,7 @@
 """Stereo correspondence for one tracked point: integer (Z)SSD search along the epipolar row,
 validity gates, and sub-pixel refinement (eq. 3.8/5.1, 5.2 + half-pixel cancellation).
 
-Contract (DESIGN.md): `match_point(left, right, x, y, ...) -> Match` on 8-bit rectified images;
+Contract (docs/design.md): `match_point(left, right, x, y, ...) -> Match` on 8-bit rectified images;
 Match.disparity_px = x_left - x_right (sub-pixel), Match.cost, Match.valid, plus sigma_px
 (predicted 1-sigma), reason (why invalid) and diagnostics.
 
@@ -34,8 +34,8 @@ method name) raise ValueError.
 
 Real camera pairs: a window fit weights each pixel by ~Ix^2, so on a slanted or curved surface it
 reports the disparity at the window's strongest edges, not at its centre. `edge.core.prefilter`'s
-x-Sobel prefilters even the weights; they cost accuracy on renders, so they are opt-in (README,
-"Known limits").
+x-Sobel prefilters even the weights; they cost accuracy on renders, so they are opt-in (docs/limits.md,
+"Real imagery").
 
 `impl` picks the arithmetic: "int" (default, exact integers with the fast cross-correlation),
 "int-ref" (the plain int64 definition: bit-identical, slower) or "float" (float64 reference

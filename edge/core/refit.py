@@ -4,7 +4,7 @@ by resampling the right image at a first estimate and refitting the small residu
 Why: every 3-point fit of a sampled cost curve has an error e(f) that depends on the fractional
 disparity f (pixel locking) and vanishes at f = 0 by symmetry. The half-pixel passes of
 `subpixel.py` cancel its odd harmonics only in part (their [1 1] kernel weights the spectrum
-unlike the integer passes; README "Known limits"). Here the right band is resampled so that
+unlike the integer passes; docs/limits.md "Matcher vs theory"). Here the right band is resampled so that
 the remaining disparity is near zero, and eq. 5.2 on -log NCC (the Gaussian model of
 `subpixel.gauss_fit_q`) is fitted around zero, where its locking error is ~slope x residual:
 
@@ -15,7 +15,7 @@ the remaining disparity is near zero, and eq. 5.2 on -log NCC (the Gaussian mode
 
 A finite window's correlation peak is not symmetric (its edge columns), which shifts each fit
 by a per-texture constant of ~0.02 px; in the RL fit it has the other sign, so the average
-removes it. Why not Gauss-Newton on interpolated samples (edge/bench/subpix_study.py): there
+removes it. Why not Gauss-Newton on interpolated samples (lab/bench/subpix_study.py): there
 the interpolator's phase error at fractional positions is the estimate's error, and short
 kernels (linear, Keys, Lanczos-3) have too much of it; here an 8-tap kernel carries it, and
 only the right image is resampled, so the left one keeps its noise unfiltered.

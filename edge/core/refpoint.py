@@ -1,7 +1,7 @@
 """Sub-pixel reference point: follow a left-image point from one frame to the next.
 
 The thesis kept the left (reference) point at whole pixels, so every re-anchoring of the track
-jumped the window by up to half a pixel (SPEC.md, "What the thesis left open", item 3). Here the
+jumped the window by up to half a pixel (docs/method.md, "What the thesis measured", item 3). Here the
 point moves at sub-pixel precision:
 
 1. integer 2-D search: ZSSD of the previous frame's window (at the rounded point) against every
@@ -33,8 +33,8 @@ from edge.core.match import NO_BRACKET, CostArithmetic, check_images, refine, ro
 
 
 @dataclass(frozen=True)
-class PointTrack:
-    """Result of `track_point`: the point's position in the current frame."""
+class FollowResult:
+    """Result of `follow_point`: the point's position in the current frame."""
 
     valid: bool
     x_px: float
@@ -48,8 +48,8 @@ class PointTrack:
 
 
 def _fail(reason: str, x: float = math.nan, y: float = math.nan, sx: float = math.inf,
-          sy: float = math.inf) -> PointTrack:
-    return PointTrack(False, x, y, math.nan, math.nan, math.nan, sx, sy, reason)
+          sy: float = math.inf) -> FollowResult:
+    return FollowResult(False, x, y, math.nan, math.nan, math.nan, sx, sy, reason)
 
 
 def _second_ratio_2d(costs: np.ndarray, iy: int, ix: int) -> float:
@@ -100,8 +100,8 @@ class FollowSite:
 
 
 def follow_site(prev: np.ndarray, cur: np.ndarray, x: float, y: float, window: int, search_radius: int,
-                predicted_dx: float, predicted_dy: float) -> FollowSite | PointTrack:
-    """The search of `track_point` for (x, y), or the failed PointTrack saying why there is none."""
+                predicted_dx: float, predicted_dy: float) -> FollowSite | FollowResult:
+    """The search of `follow_point` for (x, y), or the failed FollowResult saying why there is none."""
     if window < 3 or window % 2 == 0 or search_radius < 1:
         raise ValueError("window must be odd >= 3 and search_radius >= 1")
     problem = check_images(prev, cur)
@@ -132,13 +132,13 @@ def texture_sigmas(gx: int, gy: int, noise_dn: float) -> tuple[float, float]:
     return sx, sy
 
 
-def track_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window: int = 15,
+def follow_point(prev: np.ndarray, cur: np.ndarray, x: float, y: float, *, window: int = 15,
                 search_radius: int = 4, predicted_dx: float = 0.0, predicted_dy: float = 0.0,
                 subpixel: str = "cancel", noise_dn: float = 1.0, min_ratio: float = 1.1,
-                max_sigma_px: float = 0.3, impl: str = "int") -> PointTrack:
+                max_sigma_px: float = 0.3, impl: str = "int") -> FollowResult:
     """Where did point (x, y) of `prev` go in `cur`? See the module doc."""
     site = follow_site(prev, cur, x, y, window, search_radius, predicted_dx, predicted_dy)
-    if isinstance(site, PointTrack):
+    if isinstance(site, FollowResult):
         return site
     xi, yi, h, r = site.xi, site.yi, window // 2, search_radius
     gx = gradient_energy(prev[yi - h:yi + h + 1], xi - h, window)
@@ -165,8 +165,8 @@ def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np
                   sigmas: tuple[float, float], arith: CostArithmetic, *, window: int, search_radius: int,
                   subpixel: str, min_ratio: float, best: tuple[int, int] | None = None,
                   ratio: float | None = None, curves_from_costs: bool = False,
-                  axis_fits: tuple[list, list] | None = None) -> PointTrack:
-    """`track_point` after the integer search: validity gates and the separable sub-pixel fits.
+                  axis_fits: tuple[list, list] | None = None) -> FollowResult:
+    """`follow_point` after the integer search: validity gates and the separable sub-pixel fits.
 
     costs[v index, u index] is the (2r+1)^2 cost square; `best` (the (v, u) index of its first
     minimum) and `ratio` (its second-best ratio) when already known. curves_from_costs: take the
@@ -225,7 +225,7 @@ def finish_follow(prev: np.ndarray, cur: np.ndarray, site: FollowSite, costs: np
     u = u_a + abs(ty) * (u_b - u_a)
     v = v_a + abs(tx) * (v_b - v_a)
     cost = float(costs[iy, ix]) * (window * window if arith.is_float else 1)
-    return PointTrack(True, xf + u, yf + v, u, v, cost, sx, sy, "")
+    return FollowResult(True, xf + u, yf + v, u, v, cost, sx, sy, "")
 
 
 def _q8_fit(value: int, ok: bool) -> tuple[float | None, str]:

@@ -2,7 +2,7 @@
 
 All functions work on rotation-compensated normalised coordinates (focal
 length 1, both optical axes along world +Z), the output of
-`CameraModel.pixel_to_normalised`. World frame of SPEC.md: origin at the
+`CameraModel.pixel_to_normalised`. Rig frame of docs/method.md: origin at the
 baseline midpoint, X right, Y down, Z forward; cameras at (-+L_B/2, 0, 0).
 
 Y choice: eq. 4.1 as printed takes y from the right camera. We use the mean
@@ -68,7 +68,7 @@ def range_error(z_m: float | np.ndarray, eps: float | np.ndarray, baseline_m: fl
 
 
 def relative_range_error_k(k: float | np.ndarray, eps: float | np.ndarray) -> np.ndarray:
-    """(Z' - Z) / Z against k = Z / L_B: eps k / (1 - eps k) (eq. 4.5 divided by Z; SPEC eq. 7.1)."""
+    """(Z' - Z) / Z against k = Z / L_B: eps k / (1 - eps k) (eq. 4.5 over Z; docs/method.md eq. 7.1)."""
     ek = np.asarray(eps, dtype=np.float64) * np.asarray(k, dtype=np.float64)
     with np.errstate(divide="ignore"):
         return np.where(ek < 1.0, ek / (1.0 - ek), np.inf)

@@ -4,7 +4,7 @@ edge.encode.registers, which declares the fields, so that the map module stays s
 
 from __future__ import annotations
 
-from edge.health import HealthSnapshot
+from edge.appliance.health import HealthSnapshot
 
 AIS_FAULT_DISPARITY, AIS_FAULT_BEARING = 1 << 0, 1 << 1  # AIS_MONITOR_FAULTS bits
 

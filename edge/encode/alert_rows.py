@@ -2,7 +2,7 @@
 
 `edge.outputs.fanout` builds an `AlertImage` from the `AlertManager` and the first NMEA port's
 target numbers; `edge.encode.registers.build_snapshot` writes it into the alert header
-(addresses 60-64) and the alert block (900 onwards, see the README's register table).
+(addresses 60-64) and the alert block (900 onwards, see docs/modbus.md).
 """
 
 from __future__ import annotations

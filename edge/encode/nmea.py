@@ -1,8 +1,7 @@
 """ShipFix -> NMEA 0183 (IEC 61162-1) sentences: TTM, TLL and the proprietary TXY.
 
 Pure string functions, no I/O, so the same text goes to serial, UDP, files and
-tests. The conventions are those of OUTPUTS.md (worked examples in
-research/nmea-modbus.md):
+tests. The conventions are those of docs/nmea.md (worked examples there):
 
 - ``$`` + address + fields + ``*hh`` + CR LF, at most 82 characters in all;
   the checksum is the XOR of every character between ``$`` and ``*``.
@@ -268,7 +267,7 @@ def txy(
 ) -> str:
     """Proprietary ``$P<mfr>TXY``: x east, y north (m), vx, vy (m/s), 1-sigma (m), name, UTC, status.
 
-    `manufacturer` must be an NMEA-assigned code before this ships (OUTPUTS.md);
+    `manufacturer` must be an NMEA-assigned code before this ships (docs/nmea.md);
     ``XXX`` is the documented placeholder.
     """
     x_m, y_m = east_north_m(fix)

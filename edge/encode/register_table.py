@@ -1,10 +1,12 @@
-"""The README's Modbus register table, rendered from edge.encode.registers' field table
-(`tools/register-table`; tests/edge/encode/test_registers.py fails when the README drifts from it)."""
+"""The documented Modbus register table (docs/modbus.md), rendered from edge.encode.registers' field
+table (`tools/gen-docs`, `tools/register-table`; tests/edge/encode/test_registers.py fails when the page
+drifts from it)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 
+from edge.appliance.health import Status
 from edge.encode.registers import (
     ALERT_BLOCK,
     ALERT_SLOT_BASE,
@@ -18,7 +20,6 @@ from edge.encode.registers import (
     TRACK_BASE,
     TRACK_STRIDE,
 )
-from edge.health import Status
 
 
 def _span(start: int, words: int) -> str:
@@ -38,7 +39,7 @@ def _reserved_rows(block: str, base: int, size: int, prefix: str) -> Iterable[tu
 
 
 def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
-    """The README's register map: the whole address range, reserved gaps included."""
+    """The register map as documented: the whole address range, reserved gaps included."""
     size = TRACK_BASE + (TRACK_STRIDE + MMSI_STRIDE) * max_tracks
     out = [
         f"Input registers (FC4, references 30001 + address) with a read-only mirror in holding "
@@ -67,7 +68,7 @@ def render_markdown_table(max_tracks: int = DEFAULT_MAX_TRACKS) -> str:
             "FAULT_CODE = 10 × stage + kind; stages 1 camera_left, 2 camera_right, 3 processing, "
             "4… outputs in configuration order, 90 ais (when configured); "
             "kind 1 no heartbeat, 2 fault reported.",
-            f"Alert block (issue 18, only with alerts.enabled; then max_tracks <= {MAX_TRACKS_WITH_ALERTS}): "
+            f"Alert block (only with alerts.enabled; then max_tracks <= {MAX_TRACKS_WITH_ALERTS}): "
             f"900–{ALERT_SLOT_BASE - 1}, then {ALERT_SLOTS} alert slots, slot k at A = {ALERT_SLOT_BASE} + "
             f"{ALERT_STRIDE}·k, most urgent first; the map then ends at "
             f"{ALERT_SLOT_BASE + ALERT_STRIDE * ALERT_SLOTS - 1}."]

@@ -1,15 +1,15 @@
 """The Modbus register map, declared once as a table, and the snapshot builder.
 
-`FIELDS` is the single source of truth for OUTPUTS.md's map: every register's
+`FIELDS` is the single source of truth for the Modbus map (docs/modbus.md): every register's
 block, offset, type, scale, unit, "not available" sentinel and description.
 From it come (a) `build_snapshot()`, a pure function turning the live fixes
 and health into a complete, gap-free tuple of u16 registers that the Modbus
 driver publishes atomically, (b) `read_field()` for clients and tests, and
-(c) `edge.encode.register_table.render_markdown_table()`, the README's register table
-(`tools/register-table`; a test fails if the README drifts from it).
+(c) `edge.encode.register_table.render_markdown_table()`, the documented register table
+(docs/modbus.md, written by `tools/gen-docs`; a test fails if the page drifts from it).
 
 Layout: identity block at 0, health block at 16, track slots of fixed stride
-from 100 (slot k at 100 + 20k), then (map version 2, issue 17) one u32 MMSI per slot from
+from 100 (slot k at 100 + 20k), then (map version 2) one u32 MMSI per slot from
 MMSI_BASE = 100 + 20N (740 with the default 32 slots). The AIS calibration monitor and input
 counters sit in the health block at 40-55; they are read from the `ais` health stage's counters
 (milli-units there, so the registers carry them unchanged) and are "not available" without it.
@@ -28,18 +28,18 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from edge.appliance.health import HealthSnapshot
 from edge.encode.ais_rows import ais_values
 from edge.encode.alert_rows import AlertImage, alert_values
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthSnapshot
 
-MAP_VERSION = 2  # 2: TARGET_FLAGS, the MMSI block, the AIS health registers (issue 17); the alerts (issue 18)
+MAP_VERSION = 2  # 2: TARGET_FLAGS, the MMSI block, the AIS health registers; the alerts
 PROBE_VALUE = 0x12345678
 TRACK_BASE = 100
 TRACK_STRIDE = 20
 DEFAULT_MAX_TRACKS = 32
 MMSI_STRIDE = 2  # one u32 per slot
-ALERT_BLOCK = 900  # issue 18: the alert block (present with alerts.enabled), slots from ALERT_SLOT_BASE
+ALERT_BLOCK = 900  # the alert block (present with alerts.enabled), slots from ALERT_SLOT_BASE
 ALERT_SLOT_BASE = 910
 ALERT_STRIDE = 16
 ALERT_SLOTS = 16
@@ -160,7 +160,7 @@ FIELDS: tuple[Field, ...] = (
     _f("MMSI", "mmsi", 0, "u32", 1, "", NA_U32,
        "MMSI of slot k's associated AIS target, at MMSI_BASE + 2k (0xFFFFFFFF: none)"),
 )
-FIELDS += (  # issue 18: alerts (edge.alerts); all 0 / "not available" with alerts off
+FIELDS += (  # alerts (edge.alerts); all 0 / "not available" with alerts off
     _f("ALERTS_ACTIVE", "health", 44, "u16", 1, "", None, "Active alerts (address 60)"),
     _f("ALERTS_UNACK", "health", 45, "u16", 1, "", None, "Active alerts not acknowledged"),
     _f("ALERTS_RAISED", "health", 46, "u16", 1, "", None, "Alerts raised since start, wraps", 1 << 16),
@@ -172,7 +172,7 @@ FIELDS += (  # issue 18: alerts (edge.alerts); all 0 / "not available" with aler
     _f("ALERT_BASE", "alert", 2, "u16", 1, "", None, f"Address of alert slot 0 (= {ALERT_SLOT_BASE})"),
     _f("ALERT_STRIDE", "alert", 3, "u16", 1, "", None, f"Registers per alert slot (= {ALERT_STRIDE})"),
     _f("ALERT_ID", "alert_slot", 0, "u16", 1, "", None,
-       "0 empty, else the ALF alert id (190-193, 10001-10004: README Alerts)"),
+       "0 empty, else the ALF alert id (190-193, 10001-10004: docs/alerts.md)"),
     _f("ALERT_INSTANCE", "alert_slot", 1, "u32", 1, "", NA_U32, "ALF alert instance (first NMEA port's)"),
     _f("ALERT_STATE", "alert_slot", 3, "u16", 1, "", None,
        "0 empty, 1 active unacknowledged (V), 2 acknowledged (A)"),
@@ -188,7 +188,7 @@ FIELDS += (  # issue 18: alerts (edge.alerts); all 0 / "not available" with aler
 )
 BY_NAME = {f.name: f for f in FIELDS}
 BLOCK_FIELDS = {block: tuple(f for f in FIELDS if f.block == block) for block in BLOCKS}
-AIS_NAMES = [f.name for f in BLOCK_FIELDS["health"] if f.name.startswith("AIS_")]  # issue 17
+AIS_NAMES = [f.name for f in BLOCK_FIELDS["health"] if f.name.startswith("AIS_")]
 
 
 def _check_layout() -> None:
@@ -211,7 +211,7 @@ class Identity:
     word_order: WordOrder = WordOrder.HIGH_FIRST
     site_lat_deg: float | None = None
     site_lon_deg: float | None = None
-    alert_slots: int = 0  # issue 18: ALERT_SLOTS with alerts.enabled, else 0 (no alert block)
+    alert_slots: int = 0  # ALERT_SLOTS with alerts.enabled, else 0 (no alert block)
 
     def __post_init__(self) -> None:
         if not 1 <= self.max_tracks <= (0x10000 - TRACK_BASE) // (TRACK_STRIDE + MMSI_STRIDE):
@@ -374,7 +374,7 @@ def build_snapshot(fixes: Sequence[ShipFix], health: HealthSnapshot, identity: I
         fx = by_id.get(tid) if tid is not None else None
         write(TRACK_BASE + TRACK_STRIDE * k, "track", _slot_values(fx, numbers, utc_ns, counter))
         write(identity.mmsi_base + MMSI_STRIDE * k, "mmsi", {"MMSI": None if fx is None else fx.ais_mmsi})
-    if alerts is not None:  # issue 18: the header's alert fields, and the block when it exists
+    if alerts is not None:  # the header's alert fields, and the block when it exists
         header = alerts.header(ALERT_BLOCK if identity.alert_slots else 0)
         for f in BLOCK_FIELDS["health"][-5:]:
             at = BLOCKS["health"][0] + f.offset

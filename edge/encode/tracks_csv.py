@@ -1,4 +1,5 @@
-"""The per-fix CSV of DESIGN.md: its header and one row per fix (`replay --tracks`, `outputs.tracks_csv`).
+"""The per-fix CSV (docs/outputs.md): its header and one row per fix (`replay --tracks`,
+`outputs.tracks_csv`).
 
 Columns may be added at the end, never reordered or renamed (the contract). Numbers have fixed
 decimals; an unknown value is an empty cell, never 0 and never 'nan'.
@@ -23,7 +24,7 @@ def _num(value: float | None, decimals: int) -> str:
 
 
 def csv_row(fix: ShipFix) -> str:
-    """One line of the tracks CSV (DESIGN.md column order), without the newline."""
+    """One line of the tracks CSV (docs/outputs.md column order), without the newline."""
     return ",".join((
         str(fix.t_ns), str(fix.track_id), fix.status.value,
         _num(fix.x_m, 3), _num(fix.y_m, 3), _num(fix.z_m, 3), _num(fix.range_m, 3),

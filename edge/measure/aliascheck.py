@@ -19,7 +19,7 @@ d(window) - d(check window)| less two of its standard errors, once that exceeds 
 0, and at most MAX_SIGMA_PX. Persistent because aliasing bias at a ship's slowly changing
 disparity persists from pair to pair, while the small window's own noise and phase-dependent
 errors average out (its RMS, tried first, widened sigma 14x on tools/evaluate sharp-periodic).
-The check window is 4 px smaller (15 -> 11), chosen by measurement in the pipeline (README,
+The check window is 4 px smaller (15 -> 11), chosen by measurement in the pipeline (docs/accuracy.md,
 "Sharp optics and periodic detail"): a 9-px window is itself aliased and far off (+0.4 px on
 sharp-decks), so its disagreement sized the 9-px window's bias, not the product's, and widened
 the sigma 2-10x; 23- and 27-px windows are biased alike with the 15-px one and never disagree;

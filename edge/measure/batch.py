@@ -1,7 +1,7 @@
 """Many tracks' points stepped together, their image searches batched (edge.core.batchmatch).
 
 A `TrackPoint` does its per-pair work as a generator (`TrackPoint.steps`): where it needs the
-core it yields a request, a `Follow` (the left-image point tracker, `track_point`) or a
+core it yields a request, a `Follow` (the left-image point tracker, `follow_point`) or a
 `StereoMatch` (the right-image matcher, `match_point`), and is sent the result. `step_points`
 runs the generators of all tracks in rounds: each round collects every track's pending
 request, answers the follows with one `track_points` call and the matches with one
@@ -30,11 +30,11 @@ from edge.core.batchmatch import match_points, track_points
 from edge.core.match import Match, match_point
 from edge.core.prefilter import NOISE_GAIN
 from edge.core.rectify import Rectifier
-from edge.core.refpoint import PointTrack, track_point
+from edge.core.refpoint import FollowResult, follow_point
 from edge.measure.settings import PointSettings
 
 # fewer requests of a kind and settings are answered one by one (same results): the batched follow
-# is cheaper than `track_point` even for one point (its parabola curves come off the cost square),
+# is cheaper than `follow_point` even for one point (its parabola curves come off the cost square),
 # the batched match only from about three points on (its fixed cost: the batched products and the
 # vectorised Gaussian fits cost more than one point's own). Tracks with a window of their own
 # (edge.measure.anchor.ship_window) form small groups: tools/bench's 8-ship scene has groups of 1, 3 and 4
@@ -66,7 +66,7 @@ class MatchSettings:
 
 @dataclass(frozen=True, slots=True)
 class Follow:
-    """`track_point(prev, cur, x, y, predicted_dx=...)`: where did the template's point go?"""
+    """`follow_point(prev, cur, x, y, predicted_dx=...)`: where did the template's point go?"""
 
     prev: np.ndarray
     cur: np.ndarray
@@ -75,9 +75,9 @@ class Follow:
     predicted_dx: float
     settings: FollowSettings
 
-    def run(self) -> PointTrack:
+    def run(self) -> FollowResult:
         s = self.settings
-        return track_point(self.prev, self.cur, self.x, self.y, window=s.window,
+        return follow_point(self.prev, self.cur, self.x, self.y, window=s.window,
                            search_radius=s.search_radius, predicted_dx=self.predicted_dx, subpixel=s.subpixel,
                            noise_dn=s.noise_dn, max_sigma_px=s.max_sigma_px)
 
@@ -104,7 +104,7 @@ class StereoMatch:
 
 
 Request = Follow | StereoMatch
-Steps = Generator[Request, PointTrack | Match, bool]
+Steps = Generator[Request, FollowResult | Match, bool]
 
 
 def follow_settings(s: PointSettings, max_sigma_px: float) -> FollowSettings:
@@ -144,9 +144,9 @@ def run_one(steps: Steps) -> bool:
         return bool(done.value)
 
 
-def answer_all(requests: Sequence[Request]) -> list[PointTrack | Match]:
+def answer_all(requests: Sequence[Request]) -> list[FollowResult | Match]:
     """The answers to many requests, the core's searches batched per kind and settings."""
-    out: list[PointTrack | Match | None] = [None] * len(requests)
+    out: list[FollowResult | Match | None] = [None] * len(requests)
     groups: dict[tuple, list[int]] = defaultdict(list)
     for i, r in enumerate(requests):
         groups[(type(r), r.settings)].append(i)
@@ -176,7 +176,7 @@ def step_points(all_steps: Sequence[Steps]) -> list[bool]:
     results: list[bool] = [False] * len(all_steps)
     pending: dict[int, Request] = {}
 
-    def advance(i: int, answer: PointTrack | Match | None) -> None:
+    def advance(i: int, answer: FollowResult | Match | None) -> None:
         try:
             pending[i] = next(all_steps[i]) if answer is None else all_steps[i].send(answer)
         except StopIteration as done:

@@ -16,8 +16,8 @@ errors, as the alias check's), at most MAX_SIGMA_PX. A fronto-parallel patch (a 
 broadside) gives sub-windows that agree to the noise: the term stays 0. The point track drops it
 while the alias check finds aliasing: 7-px windows alias worse than the product's 15-px one on
 sharp optics, and their disagreement there sized their own bias (sharp-decks: sigma 4x, RMS 0.12).
-GAIN 1.5 is fitted with eq. K.8's correlation time (edge.measure.ranging) on the eleven recordings of
-the README's ruling-1 table; the sub-windows' disagreement is a few pixels' depth step, smaller than
+GAIN 1.5 is fitted with eq. K.8's correlation time (edge.measure.filter_designs) on the eleven recordings of
+docs/accuracy.md's sigma table; the sub-windows' disagreement is a few pixels' depth step, smaller than
 the offset the window's texture may sit at. Four 7x7 matches over five disparities per track and
 pair they run on, once per EVERY_S (0.5 s): every pair at 1 fps, every 5th at 10 fps. Run on every
 pair they made a pair 2-4x the time with many tracks (tools/bench: 720x480, 29 tracks, 4.2 -> 14.5

@@ -7,7 +7,7 @@ rows are epipolar lines and disparity d = u_left - u_right gives Z = f L_B / d.
   the upper part of the ship's box — the superstructure, the thesis's bridge; the window spans a
   small far ship on a quiet background (`edge.measure.anchor.ship_window`, chosen at birth, or later when
   a ship shrinks into it: `TrackTable._resize_window`).
-- Left follow: the core's sub-pixel point tracker (`edge.core.track_point`,
+- Left follow: the core's sub-pixel point tracker (`edge.core.follow_point`,
   ZSSD 2-D search with cancellation-free parabola fits here for speed) finds a
   template kept for up to a second around the position the point's image motion
   predicts (re-taking it every pair would add each pair's error to the point).
@@ -39,7 +39,7 @@ import numpy as np
 from edge.core.linefit import line_fit, median
 from edge.core.match import Match
 from edge.core.rectify import Rectifier
-from edge.core.refpoint import PointTrack
+from edge.core.refpoint import FollowResult
 from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2, MAX_SHIP_SPEED_MPS
 from edge.measure.aliascheck import AliasCheck, check_window
 from edge.measure.batch import (
@@ -53,8 +53,8 @@ from edge.measure.batch import (
     stereo_request,
 )
 from edge.measure.depthcheck import OFFSETS, SUB_WINDOW, DepthCheck, depth_every
+from edge.measure.filter_designs import Designs
 from edge.measure.pointfilter import NOISE_WINDOW, PointFilter
-from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 
 COLUMN_FIT_S = 1.0  # the image motion is the slope of a line through this much of the point's track
@@ -192,7 +192,7 @@ class TrackPoint(PointFilter):
                 assert hint is not None  # a guided follow searches around the box's step
                 pu = self.u + hint
                 found, origin = (yield guided[0]), guided[1]
-            assert isinstance(found, PointTrack)  # the answer to a Follow
+            assert isinstance(found, FollowResult)  # the answer to a Follow
             if not found.valid:  # no sure match (flat, ambiguous): carry the point on its motion
                 self.follow_failures += 1
                 self.u = pu
@@ -256,7 +256,7 @@ class TrackPoint(PointFilter):
 
     def _follow(self, left: np.ndarray, rect: Rectifier, pu: float) -> Follow:
         """Find the kept template's point in this pair with the core's sub-pixel point tracker
-        (`edge.core.track_point`), searched around the predicted column `pu`."""
+        (`edge.core.follow_point`), searched around the predicted column `pu`."""
         x0, y0, tx, ty = self.template_at
         assert self.template is not None  # only followed with a template
         h_patch, w_patch = self.template.shape
@@ -284,7 +284,7 @@ class TrackPoint(PointFilter):
         return Follow(prev, cur, self.u - (ui - mx), self.v - (vi - my), step_px, self.follow_settings), \
             (ui - mx, vi - my)
 
-    def _off_track(self, found: PointTrack, pu: float, origin: tuple[int, int], guided: bool,
+    def _off_track(self, found: FollowResult, pu: float, origin: tuple[int, int], guided: bool,
                    box_step_px: float | None) -> bool:
         """The template matched too badly (something in front of it), or too far from where the
         track's own motion puts it and from where the detector's box does (the match jumped to
@@ -328,7 +328,7 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
 
     def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier
-                 ) -> Generator[Request, PointTrack | Match, None]:
+                 ) -> Generator[Request, FollowResult | Match, None]:
         self.last_left, self.last_left_frame = left, self.frame
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window

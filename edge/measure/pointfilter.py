@@ -3,7 +3,7 @@ filter, the noise and acceleration levels of its design, and the last estimate i
 
 Why apart from the follow and match: this is the part that decides which measurements a track
 believes. The filter is the core's fixed-point CV Kalman with its 3-sigma gate (default; its white
-acceleration is what a ship at the track's disparity can do, `edge.measure.ranging`), the thesis's
+acceleration is what a ship at the track's disparity can do, `edge.measure.filter_designs`), the thesis's
 Butterworth (eq. 6.1), or none (the raw whole-pixel / sub-pixel stages that tools/evaluate
 compares). The Kalman's measurement noise follows the track's own scatter (a ladder of designs),
 its prediction bounds where the point may resume after a search, and a restarting filter must
@@ -20,7 +20,7 @@ from edge.core.kalman import DisparityKalman
 from edge.core.linefit import median
 from edge.core.match import Match
 from edge.core.shipmotion import MAX_SHIP_SPEED_MPS, accel_rung
-from edge.measure.ranging import Designs
+from edge.measure.filter_designs import Designs
 from edge.measure.settings import PointSettings
 
 NOISE_LADDER_PX = (0.04, 0.08, 0.16, 0.32)  # disparity-noise levels of the Kalman designs

@@ -52,9 +52,9 @@ from edge.measure.batch import answer_all, step_points, stereo_request
 from edge.measure.boxes import contains, inside, overlaps, waterline_masked
 from edge.measure.candidates import CandidatePool
 from edge.measure.detect import sea_range_at
+from edge.measure.filter_designs import Designs
 from edge.measure.oneship import Held, duplicates
 from edge.measure.point import TrackPoint
-from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 
 MIN_OVERLAP = 0.2  # association gate (`boxes.overlaps`), or the track's point inside the detection's box

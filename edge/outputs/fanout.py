@@ -2,21 +2,22 @@
 
 `Outputs` is what the daemon and the demo hand fixes to. It owns one output per configured
 transport (an NMEA serial port per `outputs.nmea[i]`, the optional IEC 61162-450 UDP output,
-the Modbus TCP/RTU servers, the tracks CSV, and any extra NMEA stream such as the demo's
-stdout), all behind the one `edge.outputs.base.Output` contract, and beats one health stage
-per output kind ("nmea", "modbus", "tracks_csv") so a dead port shows on the status word.
+the Modbus TCP/RTU servers, the tracks CSV, the optional ASTERIX output, and any extra NMEA
+stream such as the demo's stdout), all behind the one `edge.outputs.base.Output` contract, and
+beats one health stage per output kind ("nmea", "modbus", "tracks_csv", "asterix") so a dead
+port shows on the status word.
 
 None of the outputs block: NMEA ports queue to their own writer threads, UDP sends are
 non-blocking, the CSV has its own writer, and a Modbus server only swaps an immutable register
-image. Stages are served in order (NMEA, CSV, then Modbus), so the register image carries the
+image. Stages are served in order (NMEA, CSV, ASTERIX, then Modbus), so the register image carries the
 health of this step's other outputs. Modbus shows the NMEA target number of the first NMEA
 serial port (each port has its own allocator: numbers are per receiver); with no NMEA port the
 field reads "not available".
 
-Alerts (issue 18, `alerts.enabled`): one `AlertManager` is stepped with each step's fixes and the
-health before any output publishes; every NMEA output whose port does not say `alerts: none` gets
-its own `PortAlerts` (its target numbers, its sentences), and Modbus shows the alert block with
-the first serial port's numbers.
+Alerts (`alerts.enabled`): the chain (`edge.chain`) steps the one `AlertManager` with each step's
+fixes and the health before any output publishes; the outputs only render it: every NMEA output
+whose port does not say `alerts: none` gets its own `PortAlerts` (its target numbers, its
+sentences), and Modbus shows the alert block with the first serial port's numbers.
 """
 
 from __future__ import annotations
@@ -28,14 +29,14 @@ from collections.abc import Callable, Sequence
 
 from drivers.modbus import ModbusRtuServer, ModbusServer, ModbusTcpServer
 from edge import __version__
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertManager, AlertState
 from edge.alerts.port import PortAlerts
+from edge.appliance.health import HealthMonitor, HealthSnapshot, Status
 from edge.config.app import OutputsConfig
 from edge.encode.alert_rows import AlertImage, AlertRow
 from edge.encode.registers import ALERT_SLOTS, Identity, WordOrder
 from edge.fix import ShipFix
-from edge.health import HealthMonitor, HealthSnapshot, Status
+from edge.outputs.asterix import AsterixOutput
 from edge.outputs.base import Output
 from edge.outputs.modbus import ModbusOutput
 from edge.outputs.nmea_serial import NmeaSerialOutput
@@ -46,10 +47,10 @@ from edge.outputs.tracks_csv import TracksCsvOutput
 log = logging.getLogger(__name__)
 
 OUTPUT_STAGES: tuple[tuple[str, Status], ...] = (
-    ("nmea", Status.NMEA_ACTIVE), ("tracks_csv", Status(0)), ("modbus", Status(0)),
+    ("nmea", Status.NMEA_ACTIVE), ("tracks_csv", Status(0)), ("asterix", Status(0)), ("modbus", Status(0)),
 )
 STAGE_ORDER = {name: k for k, (name, _) in enumerate(OUTPUT_STAGES)}
-HEALTH_ORDER = ("nmea", "modbus", "tracks_csv")  # the FAULT_CODE numbering (stages 4, 5, 6)
+HEALTH_ORDER = ("nmea", "modbus", "tracks_csv", "asterix")  # the FAULT_CODE numbering (stages 4, 5, ...)
 
 
 def output_stages(cfg: OutputsConfig, *, extra_nmea: bool = False) -> list[tuple[str, Status]]:
@@ -59,6 +60,7 @@ def output_stages(cfg: OutputsConfig, *, extra_nmea: bool = False) -> list[tuple
         "nmea": bool(cfg.nmea) or cfg.udp.enabled or extra_nmea,
         "modbus": cfg.modbus.tcp.enabled or cfg.modbus.rtu.enabled,
         "tracks_csv": cfg.tracks_csv is not None,
+        "asterix": cfg.asterix.enabled,
     }
     bits = dict(OUTPUT_STAGES)
     return [(name, bits[name]) for name in HEALTH_ORDER if on[name]]
@@ -86,23 +88,30 @@ class Outputs:
     def from_config(cls, cfg: OutputsConfig, health: HealthMonitor, *, max_tracks: int,
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
                     clock: Callable[[], float] = time.monotonic,
-                    alerts: AlertsConfig | None = None, dark_prefix: str = "DARK") -> Outputs:
-        manager = AlertManager(alerts, max_tracks) if alerts is not None and alerts.enabled else None
+                    alerts: AlertManager | None = None, dark_prefix: str = "DARK",
+                    site_height_m: float | None = None) -> Outputs:
+        """The configured transports; with `alerts` (the chain's manager) the NMEA ports render its
+        alert sentences and Modbus its alert block."""
+        manager = alerts
         outputs: list[Output] = []
         for port in cfg.nmea:
             serial = NmeaSerialOutput.from_config(port, dark_prefix)
-            if manager is not None and alerts is not None and port.alerts != "none":
-                serial.scheduler.alerts = PortAlerts(manager, alerts, talker=port.talker, mode=port.alerts,
-                                                     digits=serial.scheduler.numbers.digits)
+            if manager is not None and port.alerts != "none":
+                serial.scheduler.alerts = PortAlerts(manager, manager.cfg, talker=port.talker,
+                                                     mode=port.alerts, digits=serial.scheduler.numbers.digits)
             outputs.append(serial)
         if cfg.udp.enabled:
             udp = NmeaUdpOutput.from_config(cfg.udp, dark_prefix)
-            if manager is not None and alerts is not None:
-                udp.scheduler.alerts = PortAlerts(manager, alerts, talker=cfg.udp.source[:2],
+            if manager is not None:
+                udp.scheduler.alerts = PortAlerts(manager, manager.cfg, talker=cfg.udp.source[:2],
                                                   digits=udp.scheduler.numbers.digits)
             outputs.append(udp)
         if cfg.tracks_csv is not None:
             outputs.append(TracksCsvOutput(cfg.tracks_csv))
+        if cfg.asterix.enabled:
+            site = None if site_lat_deg is None or site_lon_deg is None else \
+                (site_lat_deg, site_lon_deg, site_height_m or 0.0)
+            outputs.append(AsterixOutput.from_config(cfg.asterix, health.snapshot, site))
         servers: list[ModbusServer] = []
         if cfg.modbus.tcp.enabled:
             servers.append(ModbusTcpServer(cfg.modbus.tcp.host, cfg.modbus.tcp.port))
@@ -161,8 +170,6 @@ class Outputs:
         stage: str | None = None
         faults: list[str] = []
         counters: Counter[str] = Counter()
-        if self.alerts is not None:  # before any output: each renders this step's alerts
-            self.alerts.step(fixes, utc_ns, self.health.snapshot())
         for out in self.outputs:
             if out.stage != stage:
                 self._beat(stage, faults, counters)
@@ -180,11 +187,15 @@ class Outputs:
         """Only the Modbus image, with the health as it is now (no pair came: nothing new to send on
         NMEA or to the CSV, but the PLC must see a camera gone as soon as the health does); with
         alerts on, the NMEA ports also send what alert sentences are due (HBT, a camera-lost ALF)."""
-        if self.alerts is not None:  # a camera gone is an alert, and HBT goes on (with V) meanwhile
-            self.alerts.health_step(utc_ns, self.health.snapshot())
+        if self.alerts is not None:  # the chain stepped the alerts' health: send what is due (HBT, ALF)
             for nmea in self.outputs:
                 if isinstance(nmea, NmeaSerialOutput | NmeaUdpOutput | NmeaStreamOutput):
                     nmea.publish_alerts()
+        for out in self.outputs:  # ASTERIX status: NOGO in the next message after a camera went
+            if isinstance(out, AsterixOutput):
+                self.sent[out.unit] += len(out.publish_status(utc_ns))
+                fault, counters = out.health()
+                self.health.beat(out.stage, fault=fault, counters={**counters, out.unit: self.sent[out.unit]})
         mine = [out for out in self.outputs if isinstance(out, ModbusOutput)]
         for out in mine:  # counted apart: `sent` stays one image per processed pair
             self.health_images += len(out.publish(fixes, utc_ns))

@@ -16,9 +16,9 @@ import logging
 from collections.abc import Callable, Sequence
 
 from drivers.modbus import ModbusServer
+from edge.appliance.health import HealthSnapshot
 from edge.encode.registers import AlertImage, Identity, SlotAssignment, build_snapshot
 from edge.fix import ShipFix
-from edge.health import HealthSnapshot
 
 log = logging.getLogger(__name__)
 

@@ -2,7 +2,7 @@
 
 Every processing step hands the live fixes to `NmeaScheduler.step()`, which
 returns the track updates (groups of TTM/TLL/TXY sentences, one group per
-target) to send now. Rules (OUTPUTS.md):
+target) to send now. Rules (docs/nmea.md, "Line budget"):
 
 - Byte budget: a token bucket filled at `bytes_per_s` (for a serial line the
   baud rate divided by the bits per character, e.g. 10 for 8N1, times a
@@ -15,7 +15,7 @@ target) to send now. Rules (OUTPUTS.md):
 - Priority: a dropped track (status L, or absent from the step's fixes) gets
   its last fix re-sent with status L `lost_repeats` times `lost_interval_s`
   apart, before any live update. After the last one its number goes into
-  quarantine (`edge.encode.targets`), so the number stays off the wire >= 60 s.
+  quarantine (`edge.encode.target_numbers`), so the number stays off the wire >= 60 s.
 - A track enters NMEA once it is T (Q too only if `send_acquiring`); target
   numbers come from `TargetNumbers`. With all numbers busy a new track waits
   (counted, logged once) and is served in track-id order when one frees.
@@ -59,7 +59,7 @@ from edge.encode.nmea import (
     check_talker,
     track_sentences,
 )
-from edge.encode.targets import TargetNumbers
+from edge.encode.target_numbers import TargetNumbers
 from edge.fix import ShipFix, TrackStatus
 
 if TYPE_CHECKING:

@@ -24,9 +24,9 @@ from pyais import encode_dict
 
 from edge.core.geo import world_to_latlon
 from edge.core.site import Site
+from edge.sim.routes import KNOT_MPS
 from edge.sim.scenario import Scenario, ShipAisSpec
 from edge.sim.ships import Ship
-from edge.sim.tracks import KNOT_MPS
 
 GNSS_SIGMA_ACCURATE_M = 1.5  # per axis: DGNSS, 95 % horizontal ~3.7 m (flag 1: < 10 m)
 GNSS_SIGMA_COARSE_M = 6.0  # per axis: autonomous GNSS, 95 % ~15 m (flag 0)

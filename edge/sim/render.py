@@ -72,9 +72,13 @@ class ViewRenderer:
         marker_m: float = 0.0,
         marker_dn: float = 0.0,
         glints: tuple[Glint, ...] = (),
+        sea_overlay: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Float32 radiance image (DN at unit exposure) at time t_s."""
+        """Float32 radiance image (DN at unit exposure) at time t_s. `sea_overlay`: radiance added where the
+        pixel sees open sea (whitecaps, wakes, sparkles), before the ships are drawn over it."""
         image = self.background.at(t_s)
+        if sea_overlay is not None:
+            image += sea_overlay * self.background.sea_cover
         for group, box in self._clusters(ships):
             self._render_box(image, group, box, t_s)
         if marker_m > 0.0:

@@ -21,11 +21,15 @@ from edge.config.calibration import Calibration, calibration_ref, optional_site
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.core.site import Site
 from edge.errors import ConfigError
+from edge.sim.foam import WhitecapSpec
+from edge.sim.glitter import GlitterSpec
 from edge.sim.imaging import ImagingSpec
-from edge.sim.scene import Atmosphere, Sea, Sky, Sun
+from edge.sim.land import ForegroundSpec, LandSpec
+from edge.sim.routes import KNOT_MPS, Route
+from edge.sim.scene import Atmosphere, Sea, Sky, Sun, Swell
+from edge.sim.seastate import MAX_STATE
 from edge.sim.shipdetail import periodic_detail
 from edge.sim.ships import KINDS, ShipModel
-from edge.sim.tracks import KNOT_MPS, Track
 
 SCENARIO_DIR = Path(__file__).resolve().parents[2] / "config" / "scenarios"
 
@@ -83,6 +87,7 @@ class ShipSpec:
     )
     detail_pitch_m: float = setting(2.0, min=0.5, max=10.0, doc="window/railing pitch of detail: periodic")
     ais: ShipAisSpec | None = setting(None, doc="the AIS transponder it carries; null: none (a dark ship)")
+    wake: float = setting(0.0, min=0.0, max=2.0, doc="whiteness of its wake (0: none, 1: a planing boat's)")
 
 
 @dataclass(frozen=True)
@@ -145,6 +150,14 @@ class ScenarioSpec:
     trigger: TriggerSpec = setting(default_factory=TriggerSpec)
     rig_error: RigErrorSpec = setting(default_factory=RigErrorSpec)
     glints: GlintSpec = setting(default_factory=GlintSpec)
+    sea_state: int | None = setting(
+        None, min=0, max=MAX_STATE, doc="Douglas sea state 0-6: whitecaps and glitter width (null: none)"
+    )
+    whitecaps: WhitecapSpec = setting(default_factory=WhitecapSpec, doc="tuning of the sea_state's whitecaps")
+    glitter: GlitterSpec = setting(default_factory=GlitterSpec, doc="sun glitter (off by default)")
+    swell: Swell = setting(default_factory=Swell, doc="long-wave swell bands (off by default)")
+    land: tuple[LandSpec, ...] = setting((), doc="coasts, breakwaters, piers: opaque land on the sea")
+    foreground: tuple[ForegroundSpec, ...] = setting((), doc="vegetation, railings, walls near the cameras")
     ships: tuple[ShipSpec, ...] = setting((), doc="the ships and their tracks")
 
 
@@ -196,7 +209,7 @@ def build_ships(spec: ScenarioSpec, file: Any) -> list:
             speeds = [v * KNOT_MPS for v in t.speed_kn]
             if len(speeds) not in (1, len(t.waypoints_m) - 1):
                 raise ValueError(f"give one speed or one per leg ({len(t.waypoints_m) - 1})")
-            track = Track(t.waypoints_m, speeds, radius, t.start_s, list(t.holds_s) or None)
+            track = Route(t.waypoints_m, speeds, radius, t.start_s, list(t.holds_s) or None)
         except ValueError as exc:
             raise ConfigError(file, f"{key}.track", f"a valid track ({exc})") from None
         ships.append(Ship(s.id, model, track, s.motion))
@@ -219,9 +232,15 @@ def scenario_from_dict(data: Any, file: str | Path, name: str | None = None) -> 
         raise ConfigError(
             file, "sea.wavelength_min_m", "at most sea.wavelength_max_m", spec.sea.wavelength_min_m
         )
-    lo, hi = spec.glints.duration_s
-    if lo > hi:
-        raise ConfigError(file, "glints.duration_s", "[shortest, longest] in that order", [lo, hi])
+    for key, (lo, hi) in (
+        ("glints.duration_s", spec.glints.duration_s),
+        ("glitter.duration_s", spec.glitter.duration_s),
+        ("glitter.max_range_m", (spec.glitter.min_range_m, spec.glitter.max_range_m)),
+        ("whitecaps.life_s", spec.whitecaps.life_s),
+        ("whitecaps.max_range_m", (spec.whitecaps.min_range_m, spec.whitecaps.max_range_m)),
+    ):
+        if lo > hi:
+            raise ConfigError(file, key, "[shortest, longest] (a range above min_range_m)", [lo, hi])
     mmsis = [s.ais.mmsi for s in spec.ships if s.ais is not None]
     for i, mmsi in enumerate(mmsis):
         if mmsi in mmsis[:i]:

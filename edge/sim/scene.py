@@ -1,6 +1,6 @@
 """The world the cameras look at: a curved sea under a sky, seen through haze or fog.
 
-Geometry (world frame of DESIGN.md: X right, Y down, Z forward, origin at the
+Geometry (rig frame of docs/method.md: X right, Y down, Z forward, origin at the
 baseline midpoint, `height_m` above mean sea level):
 
 - The sea is the sphere of the *effective* Earth radius R_e = R / (1 - k)
@@ -28,10 +28,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from edge.config.schema import setting
+from edge.sim.seastate import specular_ratio
 
 EARTH_RADIUS_M = 6_371_000.0  # mean radius
 STANDARD_REFRACTION_K = 0.13  # optical coefficient of refraction (surveying standard)
@@ -81,6 +83,43 @@ class Sun:
     elevation_deg: float = setting(35.0, min=-10.0, max=90.0, doc="sun elevation (below 0: no direct light)")
     direct_dn: float = setting(160.0, min=0.0, doc="white Lambertian surface facing the sun, beyond ambient")
     ambient_dn: float = setting(90.0, min=0.0, doc="white upward surface lit by the sky alone, DN")
+
+
+@dataclass(frozen=True)
+class Swell:
+    """Long waves from afar: bands across the sea, foreshortened with range (off at zero height)."""
+
+    height_m: float = setting(0.0, min=0.0, max=15.0, doc="significant height H_s of the swell, m (0: none)")
+    wavelength_m: float = setting(90.0, min=10.0, max=600.0, doc="mean wavelength, m")
+    from_deg: float = setting(200.0, doc="travel azimuth in the world XZ plane, from +Z toward +X")
+    spread_deg: float = setting(10.0, min=0.0, max=90.0, doc="directional spread of the components")
+    components: int = setting(3, min=1, max=8, doc="number of swell components")
+    seed: int = setting(11, min=0, doc="swell phases and directions")
+
+
+@dataclass(frozen=True)
+class SwellField:
+    """Swell components: wave vectors k (m, 2), omega, slope amplitude a k, phase."""
+
+    k: np.ndarray
+    omega: np.ndarray
+    slope: np.ndarray
+    phase: np.ndarray
+
+    @classmethod
+    def from_spec(cls, swell: Swell) -> SwellField:
+        rng = np.random.default_rng([swell.seed, 0x5E11])
+        m = swell.components
+        wavelength = swell.wavelength_m * rng.uniform(0.8, 1.25, m)
+        knum = 2.0 * np.pi / wavelength
+        azimuth = np.radians(swell.from_deg + swell.spread_deg * rng.uniform(-1.0, 1.0, m))
+        amplitude = swell.height_m / 4.0 * math.sqrt(2.0 / m)  # H_s = 4 RMS elevation
+        return cls(
+            k=np.stack([knum * np.sin(azimuth), knum * np.cos(azimuth)], axis=-1),
+            omega=np.sqrt(GRAVITY_MPS2 * knum),
+            slope=amplitude * knum,
+            phase=rng.uniform(0.0, 2.0 * np.pi, m),
+        )
 
 
 def effective_radius_m(refraction_k: float) -> float:
@@ -134,7 +173,20 @@ class WaveField:
 class World:
     """Radiance of sky and sea along rays, and the Earth sphere they hit."""
 
-    def __init__(self, height_m: float, atmosphere: Atmosphere, sky: Sky, sea: Sea, sun: Sun) -> None:
+    def __init__(
+        self,
+        height_m: float,
+        atmosphere: Atmosphere,
+        sky: Sky,
+        sea: Sea,
+        sun: Sun,
+        swell: Swell | None = None,
+        glow_dn: float = 0.0,
+        glow_sigma2: float = 0.01,
+    ) -> None:
+        """`swell`: long waves that tilt the facets (off when None or of zero height); `glow_dn`: the mean
+        sun glitter's radiance at its centre (Cox-Munk slopes of variance `glow_sigma2`); `land`
+        (edge.sim.land.Land, set by the simulator): opaque land and foreground in front of sea and sky."""
         if not height_m > 0.0:
             raise ValueError(f"site height must be positive, got {height_m}")
         self.height_m = float(height_m)
@@ -143,6 +195,9 @@ class World:
         self.centre = np.array([0.0, self.height_m + self.radius_m, 0.0])
         self.waves = WaveField.from_sea(sea)
         self.sun_dir = sun_direction(sun)
+        self.swell = SwellField.from_spec(swell) if swell is not None and swell.height_m > 0.0 else None
+        self.glow_dn, self.glow_sigma2 = float(glow_dn), float(glow_sigma2)
+        self.land: Any = None  # edge.sim.land.Land, set after construction (needs the pixel scale)
 
     def sea_hit(self, origin: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """Ray parameter t of the first sea hit along origin + t * dirs; inf where the ray sees sky."""
@@ -187,13 +242,46 @@ class World:
         norm = np.linalg.norm(dirs, axis=-1)
         up = (points - self.centre) / self.radius_m  # outward normal
         cos_inc = -np.einsum("...i,...i->...", dirs, up) / norm  # cosine of the incidence angle
+        j = self._reflected_j(cos_inc)
+        trans = transmission(t_hit * norm, self.atmosphere.visibility_m)
+        radiance = trans * j + (1.0 - trans) * self.atmosphere.airlight_dn
+        if self.glow_dn > 0.0:  # the sun's glitter, averaged over the facets (Cox-Munk)
+            ratio = specular_ratio(points, origin, self.sun_dir, self.centre, self.glow_sigma2)
+            radiance = radiance + trans * self.glow_dn * ratio
+        return radiance, trans * j, points
+
+    def _reflected_j(self, cos_inc: np.ndarray) -> np.ndarray:
+        """Sea radiance before haze for the cosine of the incidence angle on the mean surface."""
         cos_eff = np.clip(cos_inc + self.sea.slope_rad, 0.0, 1.0)  # facets tilted toward the viewer
         fresnel = FRESNEL_F0 + (1.0 - FRESNEL_F0) * (1.0 - cos_eff) ** 5
         reflected_elev = np.arcsin(np.clip(cos_inc, 0.0, 1.0)) + 2.0 * self.sea.slope_rad
-        j = (1.0 - fresnel) * self.sea.water_dn + fresnel * self._sky_clear(reflected_elev)
+        return (1.0 - fresnel) * self.sea.water_dn + fresnel * self._sky_clear(reflected_elev)
+
+    def swell_gain(self, origin: np.ndarray, dirs: np.ndarray, t_hit: np.ndarray) -> np.ndarray:
+        """Radiance change per unit of each swell component's height phase, (..., m), hazed.
+
+        A swell tilts the facets along its travel direction by its slope a k; the sea's radiance
+        changes by dJ/d(tilt) times that (the Fresnel term and the reflected sky both depend on the
+        tilt toward the camera), so a swell shows as bands that are strong where the view is steep
+        and fade with range, and vanish where it runs across the line of sight.
+        """
+        swell = self.swell
+        assert swell is not None
+        points = origin + t_hit[..., None] * dirs
+        norm = np.linalg.norm(dirs, axis=-1)
+        up = (points - self.centre) / self.radius_m
         trans = transmission(t_hit * norm, self.atmosphere.visibility_m)
-        radiance = trans * j + (1.0 - trans) * self.atmosphere.airlight_dn
-        return radiance, trans * j, points
+        out = np.empty(t_hit.shape + (len(swell.omega),))
+        eps = 1e-3
+        for i, (kx, kz) in enumerate(swell.k):
+            khat = np.array([kx, 0.0, kz]) / math.hypot(kx, kz)
+            js = []
+            for sign in (1.0, -1.0):
+                tilted = up + sign * eps * khat
+                tilted /= np.linalg.norm(tilted, axis=-1, keepdims=True)
+                js.append(self._reflected_j(-np.einsum("...i,...i->...", dirs, tilted) / norm))
+            out[..., i] = trans * (js[0] - js[1]) / (2.0 * eps) * swell.slope[i]
+        return out
 
     def wave_phase(self, points_xz: np.ndarray) -> np.ndarray:
         """Spatial phase k_i . p + phi_i of each component at world (x, z) points: (..., n)."""
@@ -202,4 +290,7 @@ class World:
     def wave_time_coeffs(self, t_s: float) -> np.ndarray:
         """[cos(w t), sin(w t)] so that sum a cos(phase - w t) = basis @ coeffs (see render)."""
         wt = self.waves.omega * t_s
+        if self.swell is not None:  # the swell's columns follow the waves' (Background.basis)
+            ws = self.swell.omega * t_s
+            return np.concatenate([np.cos(wt), np.sin(wt), np.cos(ws), np.sin(ws)]).astype(np.float32)
         return np.concatenate([np.cos(wt), np.sin(wt)]).astype(np.float32)

@@ -13,7 +13,8 @@ sample so the renderer can find pixels that straddle one and integrate them
 finely. Smooth noise is prefiltered for the pixel footprint (a Gaussian
 approximation of the box filter) so it cannot alias.
 
-`ShipModel.build(kind, length_m)` gives the five presets, from a 10 m boat to
+`ShipModel.build(kind, length_m)` gives the presets, from a 5 m RIB or a
+fishing boat (low, dark hulls: the small craft a VTS cannot see on radar) to
 a 200 m container ship; dimensions scale with length. Each has a tracked point
 (the bridge, on the centreline at window height) whose world position is the
 ground truth. Ship motion in a seaway (roll, pitch, heave) is a sum of slow
@@ -30,9 +31,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from edge.sim.tracks import Track
+from edge.sim.routes import Route
 
-KINDS = ("freighter", "ferry", "coaster", "tug", "boat")
+KINDS = ("freighter", "ferry", "coaster", "tug", "boat", "rib", "fishing")
 DRAFT_M = 1.0  # hull drawn this far below the waterline (the sea hides it; no gap at the waterline)
 
 
@@ -258,7 +259,51 @@ def _boat(length: float, seed: int) -> ShipModel:
     return ShipModel("boat", length, beam, parts, np.array([0.12 * length, 0.0, top - 0.3]), 4.0, seed)
 
 
-_PRESETS = {"freighter": _freighter, "ferry": _ferry, "coaster": _coaster, "tug": _tug, "boat": _boat}
+def _rib(length: float, seed: int) -> ShipModel:
+    """A rigid inflatable: dark grey tubes barely half a metre above the water, a console amidships."""
+    beam, fb = length / 2.6, min(0.07 * length, 0.9)
+    console_top = fb + 1.1
+    parts = (
+        Part(
+            "tubes",
+            hull(length, beam, fb, 0.25 * length),
+            Style(0.10, noise=0.06, band_top_m=0.3 * fb, band_albedo=0.06),
+        ),
+        Part(
+            "console",
+            box(-0.12 * length, 0.02 * length, -0.16 * beam, 0.16 * beam, fb, console_top),
+            Style(0.55, (math.inf, 0.45, math.inf), 0.3, noise=0.05),
+        ),
+        Part(
+            "crew",
+            box(-0.22 * length, -0.14 * length, -0.1 * beam, 0.1 * beam, fb, console_top + 0.5),
+            Style(0.25),
+        ),
+    )
+    return ShipModel("rib", length, beam, parts, np.array([-0.05 * length, 0.0, console_top]), 5.0, seed)
+
+
+def _fishing(length: float, seed: int) -> ShipModel:
+    """A small fishing boat: a dark low hull, a wheelhouse forward, a mast."""
+    beam, fb = length / 3.2, 0.08 * length
+    top = fb + 0.17 * length
+    parts = (
+        Part("hull", hull(length, beam, fb, 0.22 * length),
+             Style(0.09, band_top_m=0.15 * fb, band_albedo=0.25, noise=0.05)),
+        Part(
+            "wheelhouse",
+            box(0.05 * length, 0.28 * length, -0.32 * beam, 0.32 * beam, fb, top),
+            Style(0.62, (0.8, 0.09 * length, 0.8), 0.05, window=(0.7, 0.45), noise=0.04),
+        ),
+        Part("mast", box(0.30 * length, 0.30 * length + 0.2, -0.1, 0.1, fb, fb + 0.45 * length), Style(0.3)),
+    )
+    return ShipModel("fishing", length, beam, parts, np.array([0.16 * length, 0.0, top - 0.4]), 3.5, seed)
+
+
+_PRESETS = {
+    "freighter": _freighter, "ferry": _ferry, "coaster": _coaster, "tug": _tug, "boat": _boat,
+    "rib": _rib, "fishing": _fishing,
+}
 
 
 def hash01(*ints: np.ndarray | int) -> np.ndarray:
@@ -353,7 +398,7 @@ class Ship:
 
     ship_id: int
     model: ShipModel
-    track: Track
+    track: Route
     motion: float = 1.0  # scale of roll/pitch/heave; 0 = a flat sea
 
     def pose(self, t_s: float, surface_y) -> tuple[np.ndarray, np.ndarray]:

@@ -27,11 +27,15 @@ import numpy as np
 
 from drivers.camera.base import FramePair
 from drivers.camera.virtual import VirtualSource
+from edge.sim.foam import Whitecaps, wake_patches
+from edge.sim.glitter import Sparkles, glitter_sigma2
 from edge.sim.imaging import expose
+from edge.sim.land import Land
 from edge.sim.rays import CameraRays, PosedShip
 from edge.sim.render import Glint, ViewRenderer
 from edge.sim.scenario import Scenario, build_ships, load_scenario
 from edge.sim.scene import World
+from edge.sim.surface import draw_patches, foam_radiance_dn
 
 
 @dataclass(frozen=True)
@@ -64,11 +68,50 @@ class Simulation:
         self.marker_m, self.marker_dn = marker_m, marker_dn
         spec = scenario.spec
         self.rig = scenario.calibration.rig  # the rig the recording states (the right camera may differ)
-        self.world = World(scenario.site.height_m, spec.atmosphere, spec.sky, spec.sea, spec.sun)
+        sigma2 = glitter_sigma2(spec.glitter, spec.sea_state)
+        self.world = World(
+            scenario.site.height_m, spec.atmosphere, spec.sky, spec.sea, spec.sun, spec.swell,
+            spec.glitter.glow_dn, sigma2,
+        )
+        if spec.land or spec.foreground:
+            self.world.land = Land(spec.land, spec.foreground, self.world, 1.0 / self.rig.focal_px())
         self.ships = build_ships(spec, scenario.path)
         self.triggers = self._schedule()
         self.pairs = [t for t in self.triggers if t.index >= 0]
         self.glints = self._glint_events()
+        self._sea_features(sigma2)
+
+    def _sea_features(self, sigma2: float) -> None:
+        """Whitecaps, sparkles and wakes: world-space, drawn in each view (None / empty when off)."""
+        spec = self.scenario.spec
+        half_bearing = math.atan(self.rig.width / 2.0 / self.rig.focal_px()) + math.radians(5.0)
+        self.whitecaps: Whitecaps | None = None
+        if spec.sea_state is not None or spec.whitecaps.coverage is not None:
+            state, wind_from = spec.sea_state or 0, spec.sea.wind_from_deg
+            caps = Whitecaps(spec.whitecaps, state, wind_from, half_bearing, self.seed)
+            self.whitecaps = caps if caps.coverage > 0.0 else None
+        self.sparkles: Sparkles | None = None
+        if spec.glitter.rate_per_m2_s > 0.0 and np.any(self.world.sun_dir):
+            self.sparkles = Sparkles(
+                spec.glitter, self.world, sigma2, half_bearing, self.rig.baseline_m, self.seed
+            )
+        self.wakes = [(i, s.wake) for i, s in enumerate(spec.ships) if s.wake > 0.0]
+        self.foam_dn = foam_radiance_dn(self.world, spec.whitecaps.albedo)
+
+    def sea_overlay(self, camera: int, t_s: float) -> np.ndarray | None:
+        """Radiance added to the open sea of one view at t_s (whitecaps, wakes, sparkles); None if none."""
+        if self.whitecaps is None and self.sparkles is None and not self.wakes:
+            return None
+        rays = self.views[camera].rays
+        image = np.zeros((rays.height, rays.width), np.float32)
+        patches = [self.whitecaps.patches(t_s)] if self.whitecaps is not None else []
+        patches += [wake_patches(self.ships[i], w, t_s, self.world.surface_y_m) for i, w in self.wakes]
+        if patches:
+            x, z, half_a, half_b, heading, cover = (np.concatenate(v) for v in zip(*patches, strict=True))
+            draw_patches(image, rays, self.world, x, z, half_a, half_b, heading, cover, self.foam_dn)
+        if self.sparkles is not None:
+            self.sparkles.draw(image, rays, t_s)
+        return image
 
     @functools.cached_property
     def views(self) -> tuple[ViewRenderer, ViewRenderer]:
@@ -144,7 +187,7 @@ class Simulation:
         view = self.views[camera]
         posed = self.posed_ships(t_s)
         glints = tuple(self._glints_at(camera, t_s, view, posed))
-        return view.render(t_s, posed, self.marker_m, self.marker_dn, glints)
+        return view.render(t_s, posed, self.marker_m, self.marker_dn, glints, self.sea_overlay(camera, t_s))
 
     def _glints_at(self, camera: int, t_s: float, view: ViewRenderer, posed: list[PosedShip]):
         g = self.scenario.spec.glints

@@ -12,7 +12,7 @@ the same interpolator. Here both views are *crops of one fine scene* at integer 
   area-integrated to 1 px, then gets independent read noise, rounding and clipping to uint8;
 - fog follows Koschmieder, I = t*J + (1 - t)*A; the right camera may have a gain/offset mismatch.
 
-Convention (DESIGN.md): x_right = x_left - d, i.e. right(x) = left(x + d).
+Convention (docs/design.md, the core matcher's contract): x_right = x_left - d, i.e. right(x) = left(x + d).
 Pure numpy/scipy; no I/O.
 """
 

@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from edge.config.schema import load_yaml
-from edge.sim.batch import default_jobs, write_recording
+from edge.sim.render_recording import default_jobs, write_recording
 from edge.sim.scenario import scenario_from_dict, scenario_path
 from edge.sim.simulator import Simulation
 

@@ -29,9 +29,9 @@ from drivers.modbus import (
     ModbusTcpServer,
     VirtualModbusServer,
 )
+from edge.appliance.health import HealthSnapshot, HealthState, Status
 from edge.encode.registers import Identity, SlotAssignment, WordOrder, build_snapshot
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthSnapshot, HealthState, Status
 
 pytestmark = pytest.mark.skipif(not (shutil.which("mbpoll") and shutil.which("socat")),
                                 reason="needs mbpoll and socat (tools/test installs them)")

@@ -10,7 +10,7 @@ import math
 import pytest
 
 from drivers.camera.replay import ReplaySource
-from edge.config.app import PipelineConfig
+from edge.config.app import ExperimentalConfig, PipelineConfig
 from edge.config.calibration import recording_calibration
 from edge.pipeline import Pipeline
 
@@ -24,8 +24,8 @@ def test_the_check_widens_sigma_and_changes_nothing_else(recording, check: str) 
         meta, pairs = src.meta, list(src)
     runs = {}
     for on in (False, True):
-        pipe = Pipeline(recording_calibration(path, meta), PipelineConfig(**{f"{check}_check": on}),
-                        fps=meta["fps"])
+        cfg = PipelineConfig(experimental=ExperimentalConfig(**{f"{check}_check": on}))
+        pipe = Pipeline(recording_calibration(path, meta), cfg, fps=meta["fps"])
         runs[on] = [fix for pair in pairs for fix in pipe.step(pair)]
         if on:
             terms = [getattr(t.point, f"{check}_sigma_px") for t in pipe.table.tracks]

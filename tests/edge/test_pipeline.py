@@ -17,7 +17,7 @@ from edge.config.calibration import recording_calibration
 from edge.fix import TrackStatus
 from edge.measure.groundtrack import HOLD_FACTOR
 from edge.pipeline import Pipeline
-from edge.sim.recording import read_truth
+from edge.recording.format import read_truth
 
 FRAMES = 30
 

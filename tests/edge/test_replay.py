@@ -1,4 +1,4 @@
-"""replay(): byte-identical outputs, CSV in the DESIGN.md columns, NMEA that independent parsers
+"""replay(): byte-identical outputs, CSV in the columns of docs/outputs.md, NMEA that independent parsers
 accept, and damaged recordings played to the end with their faults counted."""
 
 from __future__ import annotations

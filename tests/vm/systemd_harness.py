@@ -148,7 +148,7 @@ def ensure_recording(rootfs: Path, frames: int = 20) -> str:
 
     The virtual cameras render a pair in ~0.3 s natively, ~10 s under TCG: the daemon would be STALLED
     (no WATCHDOG=1) before its first pair and killed by the watchdog. Replaying PNGs keeps it healthy."""
-    from edge.sim.batch import write_recording
+    from edge.sim.render_recording import write_recording
     from edge.sim.scenario import load_scenario
     from edge.sim.simulator import Simulation
 

@@ -15,8 +15,8 @@ import pytest
 
 from drivers.camera import v4l2_abi as abi
 from drivers.camera.v4l2 import CameraGone, CameraSettings, ControlError, DeviceError, FormatError, V4L2Camera
-from drivers.camera.v4l2_fake import FakeControl, FakeDevice, FakeKernel, alvium_trigger_controls
 from drivers.camera.v4l2_node import Node, normalise_name
+from lab.fakes.v4l2_fake import FakeControl, FakeDevice, FakeKernel, alvium_trigger_controls
 
 MS = 1_000_000
 CONTROLS = [

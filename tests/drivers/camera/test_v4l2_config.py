@@ -11,8 +11,8 @@ import yaml
 from drivers.camera import v4l2_abi as abi
 from drivers.camera.v4l2 import V4L2Camera
 from drivers.camera.v4l2_config import cameras_from_config
-from drivers.camera.v4l2_fake import FakeControl, FakeDevice, FakeKernel
 from drivers.trigger.gpio import GpioTrigger
+from lab.fakes.v4l2_fake import FakeControl, FakeDevice, FakeKernel
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[3] / "config" / "cameras").glob("*.yaml"))
 

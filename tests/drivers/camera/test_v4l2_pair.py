@@ -9,10 +9,10 @@ import pytest
 
 from drivers.camera import v4l2_abi as abi
 from drivers.camera.v4l2 import CameraSettings, V4L2Camera
-from drivers.camera.v4l2_fake import FakeControl, FakeDevice, FakeKernel
 from drivers.camera.v4l2_pair import PairTimeout, V4L2PairSource
 from drivers.trigger.controls import TriggerControls
 from drivers.trigger.virtual import VirtualTrigger
+from lab.fakes.v4l2_fake import FakeControl, FakeDevice, FakeKernel
 
 RATE = 50.0
 MODE = 0x009A092F

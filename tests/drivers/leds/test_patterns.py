@@ -24,7 +24,7 @@ MS = 1_000_000
 S = 1000 * MS
 
 
-class FakeHealthState(enum.Enum):  # like edge.health.HealthState (drivers never import edge)
+class FakeHealthState(enum.Enum):  # like edge.appliance.health.HealthState (drivers never import edge)
     OK = "OK"
     DEGRADED = "DEGRADED"
     STALLED = "STALLED"

@@ -6,9 +6,9 @@ import pytest
 
 from drivers.camera import v4l2_abi as abi
 from drivers.camera.v4l2 import CameraSettings, ControlError, V4L2Camera
-from drivers.camera.v4l2_fake import FakeControl, FakeDevice, FakeKernel, alvium_trigger_controls
 from drivers.trigger.config import trigger_from_config
 from drivers.trigger.controls import PRESETS, trigger_controls
+from lab.fakes.v4l2_fake import FakeControl, FakeDevice, FakeKernel, alvium_trigger_controls
 
 VC = [FakeControl(0x00980A00, "Trigger Mode", minimum=0, maximum=7)]
 

@@ -13,10 +13,10 @@ import yaml
 from pyais import encode_dict
 
 from drivers.notify import VirtualNotifier
+from edge.appliance.daemon import Appliance
 from edge.config.app import load_config
-from edge.daemon import Appliance
+from edge.recording.format import read_ais, write_ais
 from edge.replay import replay
-from edge.sim.recording import read_ais, write_ais
 
 
 def _free_udp_port() -> int:

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import socat_pty
 
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertManager, AlertState
 from edge.alerts.port import PortAlerts
+from edge.config.alerts import AlertsConfig
 from edge.encode.nmea import checksum
 from edge.fix import ShipFix, TrackStatus
 from edge.outputs.nmea_serial import NmeaSerialOutput

@@ -9,10 +9,11 @@ import time
 
 from helpers import free_port
 
-from edge.alerts.config import AlertsConfig
+from edge.alerts.manager import AlertManager
+from edge.appliance.health import HealthMonitor, Status, standard_stages
+from edge.config.alerts import AlertsConfig
 from edge.config.app import ModbusConfig, ModbusTcp, NmeaPort, OutputsConfig
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthMonitor, Status, standard_stages
 from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_serial import NmeaSerialOutput
 
@@ -80,7 +81,8 @@ def test_alert_reaches_nmea_and_modbus() -> None:
     )
     health = HealthMonitor(standard_stages(output_stages(cfg)))
     health.set_flags(Status.CALIBRATION_VALID)  # as the daemon does once the calibration loaded
-    outputs = Outputs.from_config(cfg, health, max_tracks=32, alerts=AlertsConfig(enabled=True))
+    manager = AlertManager(AlertsConfig(enabled=True), 32)  # the chain steps it; the outputs render it
+    outputs = Outputs.from_config(cfg, health, max_tracks=32, alerts=manager)
     outputs.start()
     serial = next(o for o in outputs.outputs if isinstance(o, NmeaSerialOutput))
     opened = time.monotonic() + 5.0  # a port not yet open is a health fault: HBT would say V
@@ -90,7 +92,9 @@ def test_alert_reaches_nmea_and_modbus() -> None:
         for t in range(12):
             for stage in ("camera_left", "camera_right", "processing"):  # as the daemon's threads do
                 health.beat(stage, frames=1)
-            outputs.publish([fix(4, t), fix(9, t)], T0_NS + t * 10**9)
+            fixes = [fix(4, t), fix(9, t)]
+            manager.step(fixes, T0_NS + t * 10**9, health.snapshot())  # as Chain.step does
+            outputs.publish(fixes, T0_NS + t * 10**9)
         header = mbpoll(port, 60, 5)
         block = mbpoll(port, 900, 4)
         slots = mbpoll(port, 910, 16 * 4)
@@ -111,7 +115,7 @@ def test_alert_reaches_nmea_and_modbus() -> None:
 
 
 def test_camera_lost_alert_and_hbt_v_while_no_pair_comes() -> None:
-    """publish_health (the daemon's call while no pair arrives) raises camera lost after
+    """Chain.idle + publish_health (the daemon's calls while no pair arrives) raise camera lost after
     confirm_s and keeps HBT going, with V, on the serial line."""
     from drivers.serial_port import VirtualSerialPort
     from edge.alerts.manager import AlertManager
@@ -132,6 +136,7 @@ def test_camera_lost_alert_and_hbt_v_while_no_pair_comes() -> None:
             now[0] = k / 10
             health.beat("camera_right", frames=1)
             health.beat("processing")
+            manager.health_step(T0_NS + k * 10**8, health.snapshot())  # as Chain.idle does
             outputs.publish_health([], T0_NS + k * 10**8)
         deadline = now[0]
         assert deadline == 7.9

@@ -8,10 +8,10 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertId, AlertManager, AlertState
+from edge.appliance.health import HealthSnapshot, HealthState, StageHealth, Status
+from edge.config.alerts import AlertsConfig
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthSnapshot, HealthState, StageHealth, Status
 
 T0_NS = 1_790_000_000_000_000_000
 COV = (25.0, 0, 0, 0, 0, 25.0, 0, 0, 0, 0, 0.01, 0, 0, 0, 0, 0.01)  # 5 m, 0.1 m/s

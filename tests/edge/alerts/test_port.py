@@ -6,9 +6,9 @@ from __future__ import annotations
 
 from pynmeagps import NMEAReader
 
-from edge.alerts.config import AlertsConfig
 from edge.alerts.manager import AlertManager
 from edge.alerts.port import PortAlerts
+from edge.config.alerts import AlertsConfig
 from edge.encode.nmea import checksum
 from edge.fix import ShipFix, TrackStatus
 from edge.outputs.nmea_serial import serial_bytes_per_s

@@ -17,7 +17,7 @@ import pytest
 import yaml
 from helpers import ROOT, run_cli
 
-import edge.record as rec
+import edge.recording.format as fmt
 from drivers.camera.replay import read_frames
 from edge.cli import main
 from edge.replay import replay
@@ -74,7 +74,7 @@ def test_a_recorded_recording_is_the_same_pixels(tmp_path: Path, akashi: Path) -
 def test_a_full_disk_exits_74_and_keeps_the_pairs_before_it(
     tmp_path: Path, akashi: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    real, calls = rec.write_png_atomic, [0]
+    real, calls = fmt.write_png, [0]
 
     def full_after_three_pairs(path: Path, image: np.ndarray) -> None:
         calls[0] += 1
@@ -82,7 +82,7 @@ def test_a_full_disk_exits_74_and_keeps_the_pairs_before_it(
             raise OSError(errno.ENOSPC, "No space left on device", str(path))
         real(path, image)
 
-    monkeypatch.setattr(rec, "write_png_atomic", full_after_three_pairs)
+    monkeypatch.setattr(fmt, "write_png", full_after_three_pairs)
     out = tmp_path / "full"
     status = main(["record", "--config", str(_replay_config(tmp_path, akashi)), "--out", str(out),
                    "--frames", "20"])

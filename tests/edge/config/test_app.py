@@ -314,7 +314,8 @@ BAD_CONFIGS = {
     ),
     "unknown key": ("pipeline:\n  windw: 15\n", "pipeline.windw", "did you mean 'window'?"),
     "negative baseline": ("calibration: {baseline_m: -8.14}\n", "calibration.baseline_m", "> 0"),
-    "non-finite value": ("pipeline:\n  gate_sigma: .inf\n", "pipeline.gate_sigma", "finite"),
+    "non-finite value": ("pipeline:\n  experimental:\n    gate_sigma: .inf\n",
+                         "pipeline.experimental.gate_sigma", "finite"),
     "not YAML": ("pipeline: {window: 15\n", "", "expected a YAML document"),
     "top not a mapping": ("- 1\n- 2\n", "<top>", "a mapping"),
     "proprietary talker": (  # $PA... would read as a proprietary sentence, not a talker

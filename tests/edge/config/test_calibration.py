@@ -1,4 +1,5 @@
-"""edge.config.calibration: the DESIGN.md calibration file <-> Calibration, and every way it can be wrong.
+"""edge.config.calibration: the calibration file (docs/calibration.md) <-> Calibration, and every
+way it can be wrong.
 
 Round trips (dict -> Calibration -> dict, and through a YAML file) must be
 exact; each bad calibration must raise a ConfigError naming the key, and the

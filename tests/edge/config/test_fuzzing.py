@@ -1,7 +1,7 @@
 """Hypothesis over the configuration and calibration structure: any mutation of a valid file is
 accepted or refused with one ConfigError line naming the file and the key, never another exception.
 
-The mutations (edge.faults._fuzz: wrong types, missing and extra keys, out-of-range and non-finite
+The mutations (lab.faults._fuzz: wrong types, missing and extra keys, out-of-range and non-finite
 numbers, nesting, nulls, non-string keys) are driven by hypothesis' `randoms()`, so a failure shrinks
 to one small mutation; the validating functions are the daemon's own, called in-process on the parsed
 mapping for speed (tests/faults/test_inputs.py runs files and real subprocesses).
@@ -18,8 +18,8 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from edge.faults import _fuzz as fuzz
-from edge.faults.inputs import FuzzBase, check_bytes, check_mapping, fuzz_bases
+from lab.faults import _fuzz as fuzz
+from lab.faults.inputs import FuzzBase, check_bytes, check_mapping, fuzz_bases
 
 BASES = fuzz_bases(Path(tempfile.mkdtemp(prefix="fuzz-")))
 

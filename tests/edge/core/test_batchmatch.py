@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from edge.core.batchmatch import _share_curves, batch_costs, match_points, track_points
 from edge.core.costs import cost_curve_reference
 from edge.core.match import SUBPIXEL_METHODS, match_point, search_range
-from edge.core.refpoint import track_point
+from edge.core.refpoint import follow_point
 from edge.sim.synth import make_scene, render_view, sensor
 
 ROWS, COLS = 44, 90
@@ -70,7 +70,7 @@ def test_track_points_equal_track_point(seed: int, n: int, subpixel: str, window
         curs[1] = curs[1][:-1]                          # shapes differ
     kw = dict(window=window, search_radius=radius, subpixel=subpixel, noise_dn=1.0, max_sigma_px=max_sigma_px)
     got = track_points(prevs, curs, xs, ys, dxs, dys, **kw)
-    ref = [track_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=dxs[i], predicted_dy=dys[i], **kw)
+    ref = [follow_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=dxs[i], predicted_dy=dys[i], **kw)
            for i in range(n)]
     assert repr(got) == repr(ref)                       # repr: NaN fields compare equal
 
@@ -81,7 +81,7 @@ def test_track_points_fast_path_is_taken_and_exact() -> None:
     rng = np.random.default_rng(6)
     xs, ys = rng.uniform(30, 60, 24), rng.uniform(18, 26, 24)
     got = track_points(prevs, curs, xs, ys, [0.0] * 24, [0.0] * 24, subpixel="parabola", max_sigma_px=1.0)
-    ref = [track_point(p, c, x, y, subpixel="parabola", max_sigma_px=1.0)
+    ref = [follow_point(p, c, x, y, subpixel="parabola", max_sigma_px=1.0)
            for p, c, x, y in zip(prevs, curs, xs, ys, strict=True)]
     assert sum(t.valid for t in got) >= 20
     assert got == ref

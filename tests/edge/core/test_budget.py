@@ -1,4 +1,5 @@
-"""Error budget: known answers from SPEC.md/the thesis, and consistency with the error model it solves."""
+"""Error budget: known answers from docs/method.md and the thesis, and consistency with the error model
+it solves."""
 
 from __future__ import annotations
 

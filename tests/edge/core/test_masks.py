@@ -18,10 +18,10 @@ from edge.core.masks import (
     horizon_rows,
     inside_polygon,
     normalised_grid,
+    open_sea_share,
     polygon_problem,
     sea_pixel_grid,
     sea_points,
-    open_sea_share,
     search_mask,
 )
 

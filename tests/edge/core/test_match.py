@@ -187,7 +187,7 @@ def test_real_imagery_no_worse_than_stereobm() -> None:
     clipped x-Sobel prefilter our ZSSD+cancellation is at least as good as OpenCV StereoBM at the
     same textured points (RMS and median against ground truth, gross errors no more)."""
     pytest.importorskip("skimage")
-    from edge.bench import real
+    from lab.bench import real
     pair = real.load_motorcycle()
     pts = real.textured_points(pair, 9)
     errors = real.evaluate(pair, pts)

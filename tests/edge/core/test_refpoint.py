@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from edge.core.refpoint import PointTrack, track_point
+from edge.core.refpoint import FollowResult, follow_point
 from edge.sim import synth
 
 X0, Y0 = 8 * synth.SAMPLES_PER_PX, 8 * synth.ROWS_PER_PX     # view origin in the fine scene
@@ -27,7 +27,7 @@ def test_recovers_exact_sub_pixel_motion() -> None:
         for _ in range(6):
             u32, v8 = int(rng.integers(-96, 97)), int(rng.integers(-24, 25))
             prev, cur = _frames(seed, u32, v8)
-            t = track_point(prev, cur, 30.2, 20.4)
+            t = follow_point(prev, cur, 30.2, 20.4)
             assert t.valid, t.reason
             errors.append((t.dx_px - u32 / 32, t.dy_px - v8 / 8))
             assert t.x_px == pytest.approx(30.2 + t.dx_px) and t.y_px == pytest.approx(20.4 + t.dy_px)
@@ -39,15 +39,15 @@ def test_recovers_exact_sub_pixel_motion() -> None:
 def test_integer_path_matches_float_reference() -> None:
     for seed, (u32, v8) in enumerate([(37, 5), (-50, -11), (80, 20), (3, -3)]):
         prev, cur = _frames(seed, u32, v8)
-        a = track_point(prev, cur, 29.7, 19.9)
-        b = track_point(prev, cur, 29.7, 19.9, impl="float")
+        a = follow_point(prev, cur, 29.7, 19.9)
+        b = follow_point(prev, cur, 29.7, 19.9, impl="float")
         assert a.valid and b.valid
         assert abs(a.dx_px - b.dx_px) <= 2 / 256 and abs(a.dy_px - b.dy_px) <= 2 / 256
 
 
 def test_sub_pixel_point_keeps_its_fraction() -> None:
     prev, cur = _frames(3, 45, -7)
-    a, b = track_point(prev, cur, 30.2, 20.1), track_point(prev, cur, 29.6, 19.7)   # same window
+    a, b = follow_point(prev, cur, 30.2, 20.1), follow_point(prev, cur, 29.6, 19.7)   # same window
     assert a.dx_px == b.dx_px and a.dy_px == b.dy_px
     assert a.x_px - b.x_px == pytest.approx(0.6) and a.y_px - b.y_px == pytest.approx(0.4)
 
@@ -60,7 +60,7 @@ def test_follows_a_drifting_point_over_many_frames() -> None:
                           rng, 1.0) for k in range(16)]
     x, y = 25.0, 18.0
     for prev, cur in zip(views, views[1:], strict=False):
-        t = track_point(prev, cur, x, y, predicted_dx=0.34)
+        t = follow_point(prev, cur, x, y, predicted_dx=0.34)
         assert t.valid, t.reason
         assert abs(t.dx_px - step_u32 / 32) <= 0.05 and abs(t.dy_px - step_v8 / 8) <= 0.05
         x, y = t.x_px, t.y_px
@@ -71,19 +71,19 @@ def test_follows_a_drifting_point_over_many_frames() -> None:
 
 def test_prediction_extends_the_search() -> None:
     prev, cur = _frames(4, -(32 * 7 + 9), 0)       # -7.28 px: outside a radius-4 search
-    assert not track_point(prev, cur, 30, 20).valid
-    t = track_point(prev, cur, 30, 20, predicted_dx=-7)
+    assert not follow_point(prev, cur, 30, 20).valid
+    t = follow_point(prev, cur, 30, 20, predicted_dx=-7)
     assert t.valid and abs(t.dx_px + 7 + 9 / 32) < 0.05
 
 
 def test_bad_input_is_invalid_with_a_reason() -> None:
     prev, cur = _frames(5, 10, 2)
     cases = [
-        (track_point(prev.astype(float), cur, 30, 20), "uint8"),
-        (track_point(prev, cur[:, :-1], 30, 20), "shapes differ"),
-        (track_point(prev, cur, 5, 20), "border"),
-        (track_point(prev, cur, 30, float("inf")), "finite"),
-        (track_point(np.full_like(prev, 90), np.full_like(cur, 90), 30, 20), "texture"),
+        (follow_point(prev.astype(float), cur, 30, 20), "uint8"),
+        (follow_point(prev, cur[:, :-1], 30, 20), "shapes differ"),
+        (follow_point(prev, cur, 5, 20), "border"),
+        (follow_point(prev, cur, 30, float("inf")), "finite"),
+        (follow_point(np.full_like(prev, 90), np.full_like(cur, 90), 30, 20), "texture"),
     ]
     for result, reason in cases:
-        assert isinstance(result, PointTrack) and not result.valid and reason in result.reason
+        assert isinstance(result, FollowResult) and not result.valid and reason in result.reason

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from edge.appliance.health import HealthSnapshot, HealthState
 from edge.encode.alert_rows import AlertImage, AlertRow
 from edge.encode.registers import (
     ALERT_SLOT_BASE,
@@ -11,7 +12,6 @@ from edge.encode.registers import (
     build_snapshot,
     read_field,
 )
-from edge.health import HealthSnapshot, HealthState
 
 HEALTH = HealthSnapshot(HealthState.OK, "", 1, 0, 10.0, 0.1, 5.0)
 

@@ -1,6 +1,6 @@
 """edge.encode.nmea: known answers from research/nmea-modbus.md, framing rules, and two independent parsers.
 
-The property test is the acceptance test of OUTPUTS.md: for any fix within
+The property test is the acceptance test of docs/nmea.md: for any fix within
 10 km of any site away from the poles, every sentence parses with pynmea2
 (checksum checked) and pynmeagps (checksum and message id validated) to the
 fix's values within the printed precision, is at most 82 characters, and
@@ -60,7 +60,7 @@ def test_acquiring_without_velocity_leaves_speed_and_course_empty() -> None:
     fix = make_fix(track_id=4715, status=TrackStatus.ACQUIRING, range_m=1.732 * 1852, bearing_deg=45.0,
                    sog_kn=None, cog_deg=None)  # fmt: skip
     line = nmea.ttm(fix, 12)
-    # OUTPUTS.md: bearing "%.1f", so "45.0" (the research note's example pads it to "045.0").
+    # docs/nmea.md: bearing "%.1f", so "45.0" (the research note's example pads it to "045.0").
     assert line.startswith("$RATTM,12,1.732,45.0,T,,,T,,,N,TRK4715,Q,,123519.50,A*")
     assert pynmea2.parse(line, check=True).speed is None
 

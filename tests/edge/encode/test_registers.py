@@ -1,4 +1,4 @@
-"""Register map: known answers, scaling/sentinels, slot allocation, README table in sync."""
+"""Register map: known answers, scaling/sentinels, slot allocation, the documented table in sync."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from edge.appliance.health import HealthSnapshot, HealthState, Status
 from edge.encode.register_table import render_markdown_table
 from edge.encode.registers import (
     ALERT_SLOT_BASE,
@@ -31,7 +32,6 @@ from edge.encode.registers import (
     read_field,
 )
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthSnapshot, HealthState, Status
 
 ROOT = Path(__file__).resolve().parents[3]
 T0_NS = 1_790_000_000_123_456_789
@@ -221,11 +221,11 @@ def test_table_documents_every_address_once() -> None:
     assert BY_NAME["LAT"].scale == 1e-7
 
 
-def test_readme_register_table_is_the_generated_one() -> None:
-    readme = (ROOT / "README.md").read_text()
-    m = re.search(r"<!-- registers:begin -->\n(.*?)<!-- registers:end -->", readme, re.S)
-    assert m, "README.md lacks the <!-- registers:begin/end --> markers"
-    assert m[1] == render_markdown_table(), "README register table is stale: run tools/register-table"
+def test_documented_register_table_is_the_generated_one() -> None:
+    page = (ROOT / "docs" / "modbus.md").read_text()
+    m = re.search(r"<!-- registers:begin -->\n(.*?)<!-- registers:end -->", page, re.S)
+    assert m, "docs/modbus.md lacks the <!-- registers:begin/end --> markers"
+    assert m[1] == render_markdown_table(), "docs/modbus.md register table is stale: run tools/gen-docs"
 
 
 def test_register_table_tool_prints_the_generated_table() -> None:
@@ -237,7 +237,7 @@ def test_register_table_tool_prints_the_generated_table() -> None:
 def test_ais_slot_flags_mmsi_block_and_health_registers() -> None:
     """Map version 2 (issue 17): TARGET_FLAGS, one u32 MMSI per slot after the slots, and the AIS
     monitor's values read from the `ais` health stage's counters (milli-units)."""
-    from edge.health import StageHealth
+    from edge.appliance.health import StageHealth
 
     ais = StageHealth("ais", True, 0.1, None, {"disparity_offset_mpx": -87, "disparity_sigma_mpx": 12,
                                                "bearing_offset_mdeg": 250, "bearing_sigma_mdeg": 40,

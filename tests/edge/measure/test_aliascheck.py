@@ -71,7 +71,7 @@ def test_on_aliased_periodic_detail_the_check_speaks_where_the_bias_is_and_widen
                 spoke += 1
                 spoke_biased += bias > 3.0 * sigma
                 # the uncapped term sizes the window's bias; the product caps it (the pipeline's
-                # 15-px windows are seldom biased whole by more: README, "Sharp optics")
+                # 15-px windows are seldom biased whole by more: docs/accuracy.md, "Sharp optics")
                 assert check.sigma_px() <= MAX_SIGMA_PX
                 covered += bias <= 3.0 * math.hypot(sigma, GAIN * (check.persistent_px() or 0.0))
     assert biased >= 6  # the problem is there: the matcher's own sigma does not cover it

@@ -9,8 +9,8 @@ from helpers import band_texture, shifted_u8
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
 from edge.measure.batch import step_points
+from edge.measure.filter_designs import Designs
 from edge.measure.point import TrackPoint
-from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 
 W, H = 320, 160

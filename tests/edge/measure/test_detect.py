@@ -14,7 +14,7 @@ from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.geo import horizon_dip_rad, sea_range_m
 from edge.core.rectify import Rectifier
 from edge.measure.detect import Detector, sea_range_at
-from edge.sim.recording import read_truth
+from edge.recording.format import read_truth
 
 
 def test_predicted_horizon_is_the_dip_cone_through_an_ideal_camera() -> None:

@@ -11,8 +11,8 @@ from helpers import band_texture, shifted_u8
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
 from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2
+from edge.measure.filter_designs import Designs
 from edge.measure.point import FOLLOW_GATE_PX, TrackPoint
-from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 
 W, H = 320, 160

@@ -18,12 +18,12 @@ from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
 from edge.measure.anchor import CLIPPED_DN
+from edge.measure.filter_designs import Designs
 from edge.measure.point import TrackPoint
-from edge.measure.ranging import Designs
 from edge.measure.settings import PointSettings
 from edge.measure.tracks import WINDOW_VOTES, TableSettings, Track, TrackTable
 from edge.pipeline import Pipeline
-from edge.sim.recording import read_truth
+from edge.recording.format import read_truth
 
 W, H, F, B, HEIGHT = 400, 300, 900.0, 8.0, 25.0
 

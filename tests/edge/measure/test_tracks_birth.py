@@ -11,14 +11,14 @@ from drivers.camera.replay import ReplaySource
 from edge.config.calibration import recording_calibration
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
-from edge.evaluate import metrics as em
-from edge.evaluate.report import load_ships
 from edge.fix import TrackStatus
 from edge.measure.boxes import waterline_masked
 from edge.measure.candidates import CandidatePool
 from edge.measure.settings import PointSettings
 from edge.measure.tracks import TableSettings, TrackTable
 from edge.pipeline import Pipeline, waterline_open
+from lab.evaluate import metrics as em
+from lab.evaluate.report import load_ships
 
 W, H, F, B, HEIGHT = 400, 300, 900.0, 8.0, 25.0
 BOX = np.array([100.0, 100.0, 130.0, 110.0])

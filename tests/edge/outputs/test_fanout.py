@@ -9,9 +9,9 @@ import pynmea2
 
 from drivers.modbus import ModbusServer, VirtualModbusServer
 from drivers.serial_port import VirtualSerialPort
+from edge.appliance.health import HealthMonitor, HealthState, Status, standard_stages
 from edge.encode.registers import Identity, read_field
 from edge.fix import ShipFix, TrackStatus
-from edge.health import HealthMonitor, HealthState, Status, standard_stages
 from edge.outputs.fanout import OUTPUT_STAGES, Outputs, firmware_version
 from edge.outputs.nmea_serial import NmeaSerialOutput
 

@@ -21,10 +21,10 @@ import socat_pty
 
 from drivers.serial_port import VirtualSerialPort
 from edge.encode.nmea import MAX_SENTENCE_CHARS
-from edge.faults.serial_rig import T0_NS, fix, step_times
 from edge.fix import TrackStatus
 from edge.outputs.nmea_serial import NmeaSerialOutput, serial_bytes_per_s
 from edge.outputs.schedule import BURST_S, NmeaSchedule, NmeaScheduler, schedule_from_config
+from lab.faults.serial_rig import T0_NS, fix, step_times
 
 
 class Clock:

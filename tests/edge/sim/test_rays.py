@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 from edge.core.camera import PinholeCamera, Poly10Camera
 from edge.sim.rays import EDGE_SAMPLES, CameraRays, PosedShip, cast, sphere_coverage
+from edge.sim.routes import Route
 from edge.sim.ships import KINDS, Ship, ShipModel
-from edge.sim.tracks import Track
 
 
 @pytest.mark.parametrize(
@@ -45,7 +45,7 @@ def test_edge_samples_are_one_per_row_and_column_and_stratum() -> None:
 
 def _posed(kind: str, heading_deg: float, roll: float) -> PosedShip:
     heading = np.radians(heading_deg)
-    track = Track([(0.0, 0.0), (100.0 * np.sin(heading), 100.0 * np.cos(heading))], [1.0], 0.0)
+    track = Route([(0.0, 0.0), (100.0 * np.sin(heading), 100.0 * np.cos(heading))], [1.0], 0.0)
     ship = Ship(1, ShipModel.build(kind, 60.0), track, motion=roll)
     origin, basis = ship.pose(3.3, lambda x, z: 20.0 + 0.0 * x)
     origin = origin + np.array([30.0, 0.0, 400.0])
