@@ -29,6 +29,7 @@ from edge.config.ais import AisConfig
 from edge.config.alerts import AlertsConfig
 from edge.config.asterix import AsterixConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
+from edge.config.masks import MasksConfig, check_image_polygons
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
 from edge.core.site import Site
@@ -306,6 +307,8 @@ class AppConfig:
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
     alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # edge/config/alerts.py
     ais: AisConfig | None = setting(None, doc="AIS input and association (docs/ais.md); null: off")
+    masks: MasksConfig = setting(default_factory=MasksConfig,
+                                 doc="exclusion zones: no detection, no birth (docs/site-masks.md)")
 
     @property
     def effective_site(self) -> Site | None:
@@ -331,6 +334,8 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
         cfg = replace(cfg, cameras=replace(cams, path=str(resolve_path(file, cams.path))))
     elif cams.scenario.endswith((".yaml", ".yml")):
         cfg = replace(cfg, cameras=replace(cams, scenario=str(resolve_path(file, cams.scenario))))
+    if cfg.calibration is not None:  # else when the source is planned (the scenario's/recording's size)
+        check_image_polygons(cfg.masks, cfg.calibration.rig.width, cfg.calibration.rig.height, file)
     ports = [p.url for p in cfg.outputs.nmea]
     if cfg.outputs.modbus.rtu.enabled:
         ports.append(cfg.outputs.modbus.rtu.url)
