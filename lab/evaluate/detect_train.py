@@ -288,6 +288,27 @@ def result_row(name: str, det: str, res: Result) -> list[str]:
                f"{res.fa_sea / max(1, res.images):.2f}"])
 
 
+OPERATING_FA = (0.2, 0.5, 1.0, 2.0, 5.0)
+
+
+def operating_points(data: dict[str, list[ImageRecord]], train: list[str]) -> str:
+    """Leave-one-camera-out recall (>= 20 px, 10-20 px) and FA on the sea when the threshold is set
+    on the other cameras for each of OPERATING_FA false alarms per image: the trade-off curve."""
+    rows = []
+    for cam in train:
+        others = [r for c in train if c != cam for r in data[c]]
+        model = fit_model(others)
+        for fa in OPERATING_FA:
+            thr = choose_threshold(model, others, fa)
+            res = evaluate(data[cam], [model.score_q(r.features) >= round(thr * 256)
+                                       if len(r.features) else np.zeros(0, bool) for r in data[cam]])
+            big = slice(2, None)
+            rows.append([cam, f"{fa:g}", _pct(int(res.found[big].sum()), int(res.total[big].sum())),
+                         _pct(int(res.found[1]), int(res.total[1])), f"{res.fa_sea / max(1, res.images):.2f}"])
+    return ("leave-one-camera-out operating points (threshold set on the other cameras for the target)\n"
+            + table(["camera", "target FA/img", ">=20", "10-20", "FA sea/img"], rows))
+
+
 def run(args: argparse.Namespace) -> int:
     cv2.setNumThreads(1)
     train = list(args.train_cameras)
@@ -306,6 +327,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"leave-one-camera-out (fitted on the other training cameras; threshold for "
           f"{args.fa_per_image} FA/img on them)")
     print(table(headers, rows))
+    print(operating_points(data, train))
     full = fit_model([r for c in train for r in data[c]], args.fa_per_image, args.bins, args.l2)
     if test:
         rows = []
