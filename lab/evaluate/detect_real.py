@@ -56,8 +56,8 @@ import sys
 import time
 import xml.etree.ElementTree as ET
 from collections import defaultdict
-from dataclasses import dataclass, field
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -240,7 +240,7 @@ def detectors_for(camera: PinholeCamera, width: int, height: int, site_height_m:
     rect = Rectifier(rig)
     kinds = kinds or {"OLD": Detector, "NEW": SeaDetector}
     return {name: kind(rect, site_height_m, decimation=decimation, min_ship_px=min_ship_px,
-                       **options)  # type: ignore[arg-type]
+                       **options)
             for name, kind in kinds.items()}
 
 

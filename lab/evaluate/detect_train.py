@@ -46,7 +46,7 @@ import yaml
 
 from edge.core.shipfeatures import FEATURES, N_FEATURES
 from edge.core.shipscore import AdditiveModel, model_to_dict
-from edge.measure.detect import Blob
+from edge.measure.detect import Blob, Detector
 from edge.measure.seadetect import SeaDetector, _suppress_contained
 from lab.bench.common import table
 from lab.evaluate.detect_real import (
@@ -112,7 +112,7 @@ def collect(args: argparse.Namespace, cameras: list[str]) -> dict[str, list[Imag
             raise SystemExit(f"train-detect: no annotated images of camera {key}")
         geo = cams.get(key, default)
         records = []
-        kinds = {"NEW": SeaDetector}
+        kinds: dict[str, type[Detector]] = {"NEW": SeaDetector}
         for frame in camera_frames(groups[key], geo, args.decimation, args.min_ship_px, kinds,
                                    verifier=None):
             det = frame.detectors["NEW"]
@@ -136,11 +136,11 @@ def _record(blobs: list[Blob], feats: np.ndarray, boxes: list[Box], vessels: set
         features=feats.reshape(-1, N_FEATURES),
         on_sea=np.array([waterline_on(mask, b) for b in blobs], bool),
         touch_any=np.array([any(touches(b, x) for x in boxes) for b in blobs], bool),
-        touch=np.array([[touches(b, x) for x in scored] for b in blobs], bool).reshape(len(blobs), len(scored)),
+        touch=np.array([[touches(b, x) for x in scored] for b in blobs], bool
+                       ).reshape(len(blobs), len(scored)),
         vessel_bins=np.array([bin_of(x.length_px) for x in scored], np.int64),
         touch_other=np.array([any(touches(b, x) for x in other_vessels) for b in blobs], bool),
         near_vessel=np.array([any(touches(b, x) for x in zones) for b in blobs], bool))
-    return rec
 
 
 def reflection_zone(box: Box) -> Box:
@@ -154,7 +154,8 @@ def reflection_zone(box: Box) -> Box:
 def _save(path: Path, records: list[ImageRecord]) -> None:
     arrays = {}
     for i, r in enumerate(records):
-        for name in ("boxes", "features", "on_sea", "touch_any", "touch", "vessel_bins", "touch_other", "near_vessel"):
+        for name in ("boxes", "features", "on_sea", "touch_any", "touch", "vessel_bins", "touch_other",
+                     "near_vessel"):
             arrays[f"{i}.{name}"] = getattr(r, name)
     np.savez_compressed(path, n=len(records), **arrays)
 
@@ -163,8 +164,9 @@ def _load(path: Path) -> list[ImageRecord]:
     data = np.load(path)
     out = []
     for i in range(int(data["n"])):
-        out.append(ImageRecord(*(data[f"{i}.{k}"] for k in ("boxes", "features", "on_sea", "touch_any",
-                                                              "touch", "vessel_bins", "touch_other", "near_vessel"))))
+        names = ("boxes", "features", "on_sea", "touch_any", "touch", "vessel_bins", "touch_other",
+                 "near_vessel")
+        out.append(ImageRecord(*(data[f"{i}.{k}"] for k in names)))
     return out
 
 
@@ -252,7 +254,8 @@ def evaluate(records: list[ImageRecord], keep: list[np.ndarray]) -> Result:
     fa = 0
     for r, k in zip(records, keep, strict=True):
         idx = np.flatnonzero(k)
-        blobs = [Blob(*(int(v) for v in r.boxes[i]), 0, 0.0) for i in idx]
+        blobs = [Blob(int(r.boxes[i, 0]), int(r.boxes[i, 1]), int(r.boxes[i, 2]), int(r.boxes[i, 3]), 0, 0.0)
+                 for i in idx]
         kept = _suppress_contained(blobs)
         ids = {id(b) for b in kept}
         sel = np.array([i for i, b in zip(idx, blobs, strict=True) if id(b) in ids], np.int64)
@@ -283,7 +286,8 @@ def choose_threshold(model: AdditiveModel, records: list[ImageRecord], fa_target
 
 def result_row(name: str, det: str, res: Result) -> list[str]:
     big = slice(2, None)
-    return ([name, det, str(res.images)] + [_pct(int(res.found[i]), int(res.total[i])) for i in range(len(BINS))]
+    return ([name, det, str(res.images)]
+            + [_pct(int(res.found[i]), int(res.total[i])) for i in range(len(BINS))]
             + [_pct(int(res.found[big].sum()), int(res.total[big].sum())),
                f"{res.fa_sea / max(1, res.images):.2f}"])
 
@@ -304,7 +308,8 @@ def operating_points(data: dict[str, list[ImageRecord]], train: list[str]) -> st
                                        if len(r.features) else np.zeros(0, bool) for r in data[cam]])
             big = slice(2, None)
             rows.append([cam, f"{fa:g}", _pct(int(res.found[big].sum()), int(res.total[big].sum())),
-                         _pct(int(res.found[1]), int(res.total[1])), f"{res.fa_sea / max(1, res.images):.2f}"])
+                         _pct(int(res.found[1]), int(res.total[1])),
+                         f"{res.fa_sea / max(1, res.images):.2f}"])
     return ("leave-one-camera-out operating points (threshold set on the other cameras for the target)\n"
             + table(["camera", "target FA/img", ">=20", "10-20", "FA sea/img"], rows))
 
@@ -341,7 +346,8 @@ def run(args: argparse.Namespace) -> int:
         print(table(headers, rows))
     if args.write:
         cmd = "tools/train-detect " + " ".join(shlex.quote(a) for a in (args.argv or []))
-        header = (f"# The sea detector's verifier (edge.core.shipscore), fitted on cameras {', '.join(train)}\n"
+        header = (f"# The sea detector's verifier (edge.core.shipscore), fitted on cameras "
+                  f"{', '.join(train)}\n"
                   f"# by: {cmd}\n# Numbers only; regenerate with the command above.\n")
         args.write.write_text(header + yaml.safe_dump(model_to_dict(full), sort_keys=False,
                                                       default_flow_style=None, width=200))
@@ -361,7 +367,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--train-cameras", nargs="+", required=True)
     parser.add_argument("--test-cameras", nargs="*", default=None)
     parser.add_argument("--cache", type=Path, default=None, help="folder for the candidates per camera")
-    parser.add_argument("--write", type=Path, default=None, help="store the model fitted on all training cameras")
+    parser.add_argument("--write", type=Path, default=None,
+                        help="store the model fitted on all training cameras")
     parser.add_argument("--fa-per-image", type=float, default=FA_TARGET)
     parser.add_argument("--bins", type=int, default=N_BINS)
     parser.add_argument("--l2", type=float, default=L2)

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.core.shipscore import Q, AdditiveModel, model_from_dict, model_to_dict
+from edge.core.shipscore import AdditiveModel, Q, model_from_dict, model_to_dict
 
 
 def _model(seed: int, n_features: int = 5) -> AdditiveModel:
