@@ -129,7 +129,8 @@ class ExperimentalConfig:
 
     detector: Literal["rowband", "seaclutter"] = setting(
         "rowband", doc="rowband: contrast against each row band's spread (edge.measure.detect); seaclutter: "
-        "local sea-clutter CFAR on an image pyramid (edge.measure.seadetect, docs/detection-real.md)")
+        "local sea-clutter CFAR candidates on an image pyramid scored by a fitted verifier "
+        "(edge.measure.seadetect, docs/detection-real.md)")
     cost: Literal["zssd", "ssd"] = setting("zssd", doc="zero-mean SSD (robust to gain/offset) or plain SSD")
     filter: Literal["kalman", "butterworth"] = setting("kalman", doc="disparity filter (Butterworth eq. 6.1)")
     butterworth_cutoff_hz: float = setting(0.5, positive=True, doc="cut-off of the Butterworth filter")

@@ -34,43 +34,77 @@ level (lab/bench/detect_cost.py: the time per pass at 2048 x 1536 beside StereoB
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import cv2
 import numpy as np
+import yaml
 
 from edge.core.level import level_columns, shifts_q8
 from edge.core.rectify import Rectifier
-from edge.core.seaclutter import CELL_H, CELL_W, N_RING, cfar_hits
+from edge.core.seaclutter import CELL_H, CELL_W, cfar_hits
+from edge.core.shipfeatures import FEATURES, N_FEATURES, component_features
+from edge.core.shipscore import AdditiveModel, model_from_dict
 from edge.measure.detect import Blob, Detector
 
 LEVELS = 5  # pyramid levels: working resolution and four halvings
-K4 = 24  # threshold, quarters: a cell 6 times the mean contrast of its ring
-FLOOR_DN = 8.0  # and at least this far from the ring's mean (sensor noise, JPEG blocks, swell)
-BRIGHT_ONLY_FACTOR = 1.5  # a body with no dark part (a whitecap, a glint) needs this much more
-DARK_SHARE = 0.5  # "a dark part": a darker-than-ring cell at least this share of the peak contrast
+K4 = 16  # candidate threshold, quarters: a cell 4 times the mean contrast of its ring (loose: the
+# verifier decides; at 6 times the faint hulls were lost, issue 24)
+FLOOR_DN = 6.0  # and at least this far from the ring's mean (sensor noise, JPEG blocks, swell)
 MAX_LEVEL_LEN = 16  # a body longer than this (level px) is left to the next coarser level
 MIN_HEIGHT_RATIO = 0.1  # a silhouette at least this tall for its length (crests are flatter)
 TOP_MARGIN_SHARE = 1 / 12  # the band starts this share of the image height above the horizon
 MIN_TOP_MARGIN_PX = 16
 CONTAIN_SHARE = 0.5  # a box with this share of its area inside a larger one is the same ship
+MODEL_PATH = Path(__file__).with_name("sea_verifier.yaml")  # fitted by lab/evaluate/detect_train.py
+_LEVELS_SEEN = FEATURES.index("levels_seen")
+
+
+def load_verifier(path: Path = MODEL_PATH) -> AdditiveModel:
+    """The verifier's tables from their YAML file (edge.core.shipscore's stored form)."""
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ValueError(f"{path}: {exc}") from exc
+    try:
+        model = model_from_dict(data)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from exc
+    if model.names != FEATURES:
+        raise ValueError(f"{path}: features {model.names}, the detector computes {FEATURES}")
+    return model
 
 
 class SeaDetector(Detector):
-    """Finds ship blobs against the local sea clutter; keeps the refined horizon between calls."""
+    """Finds ship blobs against the local sea clutter; keeps the refined horizon between calls.
+
+    `verifier`: the additive model that scores each candidate (default: the fitted tables in
+    sea_verifier.yaml beside this module); None reports every candidate (the candidate stage)."""
 
     def __init__(self, rectifier: Rectifier, site_height_m: float, *, decimation: int = 2,
                  min_ship_px: int = 20, levels: int = LEVELS, k4: int = K4,
-                 floor_dn: float = FLOOR_DN) -> None:
+                 floor_dn: float = FLOOR_DN, verifier: AdditiveModel | None | str = "default") -> None:
         super().__init__(rectifier, site_height_m, decimation=decimation, min_ship_px=min_ship_px)
         self.levels = max(1, int(levels))
         self.k4 = int(k4)
         self.floor_q = int(round(4 * floor_dn))
+        self.verifier = load_verifier() if isinstance(verifier, str) else verifier
 
     def detect(self, left: np.ndarray, search_mask: np.ndarray | None = None) -> list[Blob]:
         """Candidate ships in one left image (grey uint8, full resolution), left to right.
 
         `search_mask`: optional boolean array of the image's shape, True where a ship may be
         reported (a blob's waterline centre must fall on True)."""
+        blobs, features = self.candidates(left, search_mask)
+        if self.verifier is not None and blobs:
+            keep = self.verifier.verified(features)
+            blobs = [b for b, k in zip(blobs, keep, strict=True) if k]
+        return sorted(_suppress_contained(blobs), key=lambda b: (b.x0, b.y0))
+
+    def candidates(self, left: np.ndarray, search_mask: np.ndarray | None = None
+                   ) -> tuple[list[Blob], np.ndarray]:
+        """Every candidate on the sea before verification: blobs (full-resolution raw pixels) and
+        their feature rows (edge.core.shipfeatures.FEATURES), shape (n, N_FEATURES)."""
         if search_mask is not None and search_mask.shape != left.shape:
             raise ValueError(f"search mask is {search_mask.shape}, the image {left.shape}")
         dec = self.decimation
@@ -85,31 +119,35 @@ class SeaDetector(Detector):
         reach = int(np.ceil(np.abs(shifts).max())) + 1
         r0 = max(0, top - reach)
         flat = level_columns(small[r0:], shifts_q8(shifts))[top - r0:]
-        candidates: list[tuple[int, int, int, int, float]] = []  # x0, y0, x1, y1 working px, contrast
+        found: list[tuple[int, int, int, int, float, np.ndarray]] = []
         image = flat
         for k in range(self.levels):
             if image.shape[0] < CELL_H + 1 or image.shape[1] < 2 * CELL_W:
                 break
-            candidates += self._level_candidates(image, k, top)
+            found += self._level_candidates(image, k, top, (level_row - top) / (1 << k))
             if k + 1 < self.levels:
                 image = cv2.resize(image, (image.shape[1] // 2, image.shape[0] // 2),
                                    interpolation=cv2.INTER_AREA)
-        blobs = []
-        for x0, y0, x1, y1, contrast in candidates:
+        blobs, rows = [], []
+        for x0, y0, x1, y1, contrast, feats in found:
             c0 = min(max(0, x0), ws - 1)
             c1 = max(c0 + 1, min(ws, x1))
             dy = shifts[c0:c1]  # back from levelled rows to image rows
             top_raw, bottom_raw = y0 + math.floor(dy.min() + 0.5), y1 + math.floor(dy.max() + 0.5)
             blob = Blob(x0 * dec, top_raw * dec, x1 * dec, bottom_raw * dec,
-                        (x1 - x0) * (y1 - y0) * dec * dec,
-                        contrast)
+                        (x1 - x0) * (y1 - y0) * dec * dec, contrast)
             if self._on_sea(blob, horizon, search_mask):
                 blobs.append(blob)
-        return sorted(_suppress_contained(blobs), key=lambda b: (b.x0, b.y0))
+                rows.append(feats)
+        features = np.array(rows).reshape(len(rows), N_FEATURES)
+        if len(blobs) > 1:
+            features[:, _LEVELS_SEEN] = _levels_seen(blobs, features[:, FEATURES.index("level")])
+        return blobs, features
 
-    def _level_candidates(self, image: np.ndarray, k: int, top: int
-                          ) -> list[tuple[int, int, int, int, float]]:
-        """Components of one level's CFAR hits, as working-resolution boxes (levelled rows)."""
+    def _level_candidates(self, image: np.ndarray, k: int, top: int, horizon_row: float
+                          ) -> list[tuple[int, int, int, int, float, np.ndarray]]:
+        """Components of one level's CFAR hits, as working-resolution boxes (levelled rows), with
+        their features (horizon_row: the horizon in this level's rows)."""
         hits, a, bright, clutter = cfar_hits(image, self.k4, self.floor_q)
         n, labels, stats, _ = cv2.connectedComponentsWithStats(hits, connectivity=8)
         scale = 1 << k
@@ -129,17 +167,12 @@ class SeaDetector(Detector):
             x0 = int(round((x + 0.5 * (CELL_W - 1)) * scale))
             y0 = int(round((y + 0.5 * (CELL_H - 1)) * scale)) + top
             sel = labels[y:y + h, x:x + w] == i
-            av = a[y:y + h, x:x + w][sel].astype(np.int64)
-            ring = np.maximum(clutter[y:y + h, x:x + w][sel].astype(np.int64), 1)
-            dark = av[bright[y:y + h, x:x + w][sel] == 0]
-            peak_q = int(av.max())
-            # the strongest cell against its ring, in sixteenths (4 a N_RING / sum(ring a) > K4 is a hit)
-            ratio4 = int((4 * 4 * N_RING * av // ring).max())
-            if not _dark_enough(peak_q, int(dark.max()) if dark.size else 0) and \
-                    ratio4 < BRIGHT_ONLY_FACTOR * 4 * self.k4:
-                continue  # bright and nothing dark: a whitecap or glint unless it is far stronger
-            peak = peak_q / 4.0
-            out.append((x0, y0, x0 + w * scale, y0 + h * scale, peak))
+            peak = float(a[y:y + h, x:x + w][sel].max()) / 4.0
+            feats = component_features(image, a, bright, clutter, labels, stats[i], i,
+                                       scale_px=float(scale * self.decimation),
+                                       horizon_row=horizon_row, image_height_px=float(self.height),
+                                       level=k)
+            out.append((x0, y0, x0 + w * scale, y0 + h * scale, peak, feats))
         return out
 
     def _on_sea(self, blob: Blob, horizon: np.ndarray, search_mask: np.ndarray | None) -> bool:
@@ -159,6 +192,19 @@ class SeaDetector(Detector):
         return True
 
 
+def _levels_seen(blobs: list[Blob], level: np.ndarray) -> np.ndarray:
+    """For each blob, the number of distinct pyramid levels among the blobs overlapping it (itself
+    included): a hull stands out at more than one scale, a glint at one."""
+    b = np.array([[x.x0, x.y0, x.x1, x.y1] for x in blobs], np.int64)
+    overlap = ((np.minimum(b[:, None, 2], b[None, :, 2]) > np.maximum(b[:, None, 0], b[None, :, 0]))
+               & (np.minimum(b[:, None, 3], b[None, :, 3]) > np.maximum(b[:, None, 1], b[None, :, 1])))
+    lv = level.astype(np.int64)
+    seen = np.zeros((len(blobs), int(lv.max()) + 1), bool)
+    rows, cols = np.nonzero(overlap)
+    seen[rows, lv[cols]] = True
+    return seen.sum(axis=1).astype(np.float64)
+
+
 def _suppress_contained(blobs: list[Blob]) -> list[Blob]:
     """Largest first; a box with CONTAIN_SHARE of its area inside a kept one is dropped."""
     kept: list[Blob] = []
@@ -174,8 +220,3 @@ def _suppress_contained(blobs: list[Blob]) -> list[Blob]:
         if not inside:
             kept.append(b)
     return kept
-
-
-def _dark_enough(peak_q: int, dark_q: int) -> bool:
-    """A hull, its shadow or its waterline: a dark cell at least DARK_SHARE of the peak contrast."""
-    return dark_q >= DARK_SHARE * peak_q

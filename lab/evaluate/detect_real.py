@@ -56,6 +56,7 @@ import sys
 import time
 import xml.etree.ElementTree as ET
 from collections import defaultdict
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -232,11 +233,15 @@ def camera_for_horizon(width: int, height: int, hfov_deg: float, site_height_m: 
 
 
 def detectors_for(camera: PinholeCamera, width: int, height: int, site_height_m: float, decimation: int,
-                  min_ship_px: int) -> dict[str, Detector]:
+                  min_ship_px: int, kinds: dict[str, type[Detector]] | None = None,
+                  **options: object) -> dict[str, Detector]:
+    """The detectors (default: OLD and NEW) for one camera geometry; `options` go to each."""
     rig = StereoRig(1.0, width, height, camera, camera)
     rect = Rectifier(rig)
-    return {"OLD": Detector(rect, site_height_m, decimation=decimation, min_ship_px=min_ship_px),
-            "NEW": SeaDetector(rect, site_height_m, decimation=decimation, min_ship_px=min_ship_px)}
+    kinds = kinds or {"OLD": Detector, "NEW": SeaDetector}
+    return {name: kind(rect, site_height_m, decimation=decimation, min_ship_px=min_ship_px,
+                       **options)
+            for name, kind in kinds.items()}
 
 
 def sea_mask(width: int, height: int, geo: CameraGeometry, horizon: np.ndarray) -> np.ndarray:
@@ -360,6 +365,49 @@ def overlay(image: np.ndarray, horizon: np.ndarray,
 
 
 # ----------------------------------------------------------------------------- run
+@dataclass
+class Frame:
+    """One annotated image of a camera, with the detectors of its geometry and its sea mask."""
+
+    path: Path
+    image: np.ndarray
+    detectors: dict[str, Detector]
+    horizon: np.ndarray  # the stated (or found) horizon row per column, before refinement
+    mask: np.ndarray  # True on the sea (scoring)
+    search: np.ndarray | None  # the detector's search mask (the sea polygons), or None
+
+
+def camera_frames(paths: list[Path], geo: CameraGeometry, decimation: int, min_ship_px: int,
+                  kinds: dict[str, type[Detector]] | None = None, **options: object) -> Iterator[Frame]:
+    """The images of one camera in order, each with detectors built for its horizon (rebuilt when
+    the horizon moves by more than 1.5 px: the webcams pan and shake) and its sea mask."""
+    width, height = _image_size(paths[0])
+    fixed = None
+    if isinstance(geo.horizon, list):
+        (x0, y0), (x1, y1) = geo.horizon
+        fixed = (float(x0), float(y0)), (float(x1), float(y1))
+    line: tuple[tuple[float, float], tuple[float, float]] | None = None
+    dets: dict[str, Detector] = {}
+    for path in paths:
+        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        if image is None or image.shape != (height, width):
+            continue
+        # a webcam may pan or shake between frames: with `auto` the horizon is found in each image
+        found = fixed or find_horizon(image, (geo.horizon_rows[0] * height, geo.horizon_rows[1] * height))
+        if found is None and line is None:
+            found = auto_horizon(paths, geo)
+        if found is not None and (line is None or max(abs(found[0][1] - line[0][1]),
+                                                       abs(found[1][1] - line[1][1])) > 1.5):
+            line = found
+            camera = camera_for_horizon(width, height, geo.hfov_deg, geo.site_height_m, *line)
+            dets = detectors_for(camera, width, height, geo.site_height_m, decimation, min_ship_px, kinds,
+                                 **options)
+        first = next(iter(dets.values()))
+        horizon = first.horizon_row.copy()  # before this image's refinement: the stated one
+        mask = sea_mask(width, height, geo, horizon)
+        yield Frame(path, image, dets, horizon, mask, mask if geo.sea else None)
+
+
 def camera_key(path: Path, known: dict[str, CameraGeometry]) -> str:
     for key in sorted(known, key=len, reverse=True):
         if path.name.startswith(key):
@@ -415,31 +463,10 @@ def run(args: argparse.Namespace) -> int:
         if geo.skip:
             continue
         paths = groups[key][: args.limit] if args.limit else groups[key]
-        width, height = _image_size(paths[0])
-        fixed = None
-        if isinstance(geo.horizon, list):
-            (x0, y0), (x1, y1) = geo.horizon
-            fixed = (float(x0), float(y0)), (float(x1), float(y1))
-        line: tuple[tuple[float, float], tuple[float, float]] | None = None
-        dets: dict[str, Detector] = {}
         tallies = {d: Tally() for d in DETECTORS}
-        for n, path in enumerate(paths):
-            image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-            if image is None or image.shape != (height, width):
-                continue
-            # a webcam may pan or shake between frames: with `auto` the horizon is found in each image
-            found = fixed or find_horizon(image, (geo.horizon_rows[0] * height, geo.horizon_rows[1] * height))
-            if found is None and line is None:
-                found = auto_horizon(paths, geo)
-            if found is not None and (line is None or max(abs(found[0][1] - line[0][1]),
-                                                           abs(found[1][1] - line[1][1])) > 1.5):
-                line = found
-                camera = camera_for_horizon(width, height, geo.hfov_deg, geo.site_height_m, *line)
-                dets = detectors_for(camera, width, height, geo.site_height_m, args.decimation,
-                                     args.min_ship_px)
-            horizon = dets["NEW"].horizon_row.copy()  # before this image's refinement: the stated one
-            mask = sea_mask(width, height, geo, horizon)
-            search = mask if geo.sea else None
+        for n, frame in enumerate(camera_frames(paths, geo, args.decimation, args.min_ship_px)):
+            path, image, dets, horizon, mask, search = (frame.path, frame.image, frame.detectors,
+                                                        frame.horizon, frame.mask, frame.search)
             results = {}
             for det in (DETECTORS if n % 2 == 0 else DETECTORS[::-1]):
                 t0 = time.process_time()

@@ -81,3 +81,30 @@ def test_nothing_in_the_sky() -> None:
     y = int(det.horizon_raw[200]) - 60
     image[y - 6:y, 200:240] = 60  # a dark cloud or a bird above the horizon
     assert not any(b.y1 < det.horizon_raw[220] - 10 for b in det.detect(image))
+
+
+def test_the_stored_verifier_matches_the_features_and_a_bad_file_is_named(tmp_path) -> None:
+    from edge.core.shipfeatures import FEATURES
+    from edge.measure.seadetect import load_verifier
+
+    model = load_verifier()
+    assert model.names == FEATURES
+    bad = tmp_path / "v.yaml"
+    bad.write_text("bias: 0\nthreshold: 0\nfeatures: {a: {edges: [], table: [0]}}\n")
+    with pytest.raises(ValueError, match="v.yaml: features"):
+        load_verifier(bad)
+
+
+def test_detect_reports_the_verified_candidates() -> None:
+    from edge.core.shipfeatures import N_FEATURES
+
+    rng = np.random.default_rng(5)
+    loose = SeaDetector(_rect(), 20.0, decimation=1, min_ship_px=8, verifier=None)
+    image = _hull(_sea(loose, rng), loose, 400, 14, 5)
+    blobs, feats = loose.candidates(image)
+    assert feats.shape == (len(blobs), N_FEATURES)
+    verified = SeaDetector(_rect(), 20.0, decimation=1, min_ship_px=8)  # fresh: the same horizon
+    assert verified.verifier is not None
+    keep = verified.verifier.verified(feats)
+    found = verified.detect(image)
+    assert set(found) <= {b for b, k in zip(blobs, keep, strict=True) if k}
