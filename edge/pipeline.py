@@ -33,6 +33,7 @@ import numpy as np
 from drivers.camera.base import FramePair
 from edge.config.app import PipelineConfig
 from edge.config.calibration import Calibration
+from edge.core import native
 from edge.core.calibsigma import Pointing
 from edge.core.geo import enu_to_world, range_bearing, speed_course, world_to_enu, world_to_latlon
 from edge.core.rectify import Rectifier
@@ -76,6 +77,9 @@ class Pipeline:
         if subpixel not in SUBPIXELS or (filter is not None and filter not in FILTERS):
             raise ValueError(f"subpixel must be one of {SUBPIXELS}, filter one of {FILTERS}")
         self.site, self.fps, self.cfg = site, float(fps), cfg
+        if native.kernels is None:
+            log.warning("the compiled kernels (mast-stereo-native, native/) are not installed: the NumPy "
+                        "reference runs instead (the same fixes, about three times the CPU time)")
         self.utc_offset_ns = int(utc_offset_ns)
         self.rig = calibration.rig
         self.rect = Rectifier(self.rig)
