@@ -104,6 +104,7 @@ class GroundTrack:
         self.s = settings or GroundSettings()
         self.qs = (self.s.quiet_q, self.s.manoeuvre_q)
         self.t_s: float | None = None
+        self._state: tuple[np.ndarray, np.ndarray] | None = None  # state() until the filter changes
         self.x = np.zeros((2, 4))  # per model
         self.p = np.zeros((2, 4, 4))
         self.mu = np.array([0.5, 0.5])
@@ -114,14 +115,27 @@ class GroundTrack:
         self.last_nis = math.nan
 
     # ------------------------------------------------------------ estimate
+    @property
+    def mu(self) -> np.ndarray:
+        """The models' probabilities (setting them, as every step of the filter does, renews `state`)."""
+        return self._mu
+
+    @mu.setter
+    def mu(self, value: np.ndarray) -> None:
+        self._mu, self._state = value, None
+
     def state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Combined (x, P) of the models (the IMM's output)."""
-        x = self.mu @ self.x
-        p = np.zeros((4, 4))
-        for j in range(2):
-            d = self.x[j] - x
-            p += self.mu[j] * (self.p[j] + np.outer(d, d))
-        return x, p
+        """Combined (x, P) of the models (the IMM's output). Computed once per step of the filter: the
+        fix, its speed and course, the reporting latch and CPA all ask for it (callers get copies)."""
+        if self._state is None:
+            x = self.mu @ self.x
+            p = np.zeros((4, 4))
+            for j in range(2):
+                d = self.x[j] - x
+                p += self.mu[j] * (self.p[j] + np.outer(d, d))
+            self._state = (x, p)
+        x, p = self._state
+        return x.copy(), p.copy()
 
     def velocity(self) -> tuple[np.ndarray, np.ndarray] | None:
         """(east, north) velocity m/s and its 2x2 covariance; None before the first measurement."""
@@ -196,6 +210,7 @@ class GroundTrack:
             nj = float(yj @ s_inv @ yj)
             likelihood[j] = math.exp(-0.5 * nj) / (2.0 * math.pi * math.sqrt(max(det, 1e-300)))
         post = likelihood * self.mu
+        self._state = None  # the models' x and P changed above
         if post.sum() > 0 and np.all(np.isfinite(post)):
             self.mu = post / post.sum()
         self.measurements += 1
@@ -228,6 +243,7 @@ class GroundTrack:
             self.p[j] = 0.0
             self.p[j, :2, :2] = r
             self.p[j, 2:, 2:] = pv
+        self._state = None
         self.outliers = 0
 
     def _predict(self, dt_s: float) -> None:

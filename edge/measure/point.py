@@ -44,6 +44,7 @@ from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2, MAX_SHIP_SPEED_MPS
 from edge.measure.aliascheck import AliasCheck, check_window
 from edge.measure.batch import (
     Follow,
+    MatchSettings,
     Request,
     Steps,
     StereoMatch,
@@ -88,6 +89,7 @@ class TrackPoint(PointFilter):
         self.u, self.v = u, v
         self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)  # the core requests' knobs, kept
         self.match_settings = match_settings(self.s)
+        self._near_settings: dict[int, tuple[PointSettings, MatchSettings]] = {}  # _near_request's by window
         self.template: np.ndarray | None = None  # window around template_at in the last image
         self.template_at = (0, 0, 0.0, 0.0)  # its patch origin, and the point (u, v) then
         self.template_reach = 0.0  # px the point may move before the patch is too small
@@ -139,6 +141,7 @@ class TrackPoint(PointFilter):
         self.s = replace(self.s, window=window)
         self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)
         self.match_settings = match_settings(self.s)
+        self._near_settings = {}
         self.match_costs.clear()  # costs scale with the window's area
         self.alias.clear()  # and the check's window changes with it
         self.depth.clear()
@@ -372,9 +375,12 @@ class TrackPoint(PointFilter):
         """A cross-check of the main match: the point moved by (du, dv) px, matched with another
         window, searched +-2 px around the main match (the alias check's smaller window,
         edge.measure.aliascheck; the depth check's sub-windows, edge.measure.depthcheck)."""
-        settings = replace(self.match_settings, window=window, search_radius=2)
-        return stereo_request(replace(self.s, window=window), left, right, rect, self.u + du, self.v + dv,
-                              m.disparity_px, settings)
+        near = self._near_settings.get(window)
+        if near is None:  # the track's settings with that window, made once (dataclass replace is slow)
+            near = (replace(self.s, window=window),
+                    replace(self.match_settings, window=window, search_radius=2))
+            self._near_settings[window] = near
+        return stereo_request(near[0], left, right, rect, self.u + du, self.v + dv, m.disparity_px, near[1])
 
     def _mixed(self, cost: float) -> bool:
         """A match much worse than this track's typical one: the window holds two objects at
