@@ -350,14 +350,22 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
     return out  # type: ignore[return-value]
 
 
+_NATIVE_REASONS = {  # refine's reasons for the compiled matcher's failures after the gates
+    native.MATCH_NO_BRACKET: NO_BRACKET,
+    native.MATCH_CANCEL_LR: "half-pixel cancellation pass has no interior minimum",
+    native.MATCH_CANCEL_RL: "right-to-left cancellation pass has no interior minimum",
+}
+
+
 def _match_points_native(kernels: Any, lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray],
                          xs: Sequence[float], ys: Sequence[float], max_disparities: Sequence[int],
                          predicted_disparities: Sequence[float | None], reference: Any, *, window: int,
                          search_radius: int | None, cost: str, subpixel: str, noise_dn: float,
                          min_ratio: float, max_sigma_px: float) -> list[Match]:
     """`match_points` by the compiled matcher (native/src/match.c, bit-identical): its gates and
-    sub-pixel step for "none", "parabola" and "cancel6-gauss"; `finish_match` refines where the
-    Gaussian has no fit (or for the other methods) and `reference` takes the points off its fast path."""
+    sub-pixel step for "none", "parabola" and "cancel6-gauss" (with its fallback to the six passes'
+    parabola fits); `finish_match` refines for the other methods and `reference` takes the points
+    off its fast path."""
     n = len(lefts)
     x, y = _floats(xs), _floats(ys)
     preds = [math.nan if p is None else p for p in predicted_disparities]
@@ -399,7 +407,7 @@ def _match_points_native(kernels: Any, lefts: Sequence[np.ndarray], rights: Sequ
                                     subpixel=subpixel, min_ratio=min_ratio, k0=d0 - lo, ratio=ratio,
                                     noise_dn=noise_dn))
             continue
-        reason = NO_BRACKET if code == native.MATCH_NO_BRACKET else \
+        reason = _NATIVE_REASONS.get(code) or \
             match_gate(window, xi, lo, hi - lo + 1, d0 - lo, ratio, width=width, subpixel=subpixel,
                        min_ratio=min_ratio)
         out.append(_invalid(reason, xf, yf, sigma_px=sigma, texture=texture, disparity_int=d0,

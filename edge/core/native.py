@@ -34,7 +34,7 @@ SUBPIXEL_CODES = {"none": 0, "parabola": 1, "cancel6-gauss": 2}
 SUB_OTHER = 3
 # match status codes (mc_match_status) and follow status codes (mc_follow_status)
 (MATCH_VALID, MATCH_EDGE, MATCH_AMBIGUOUS, MATCH_BORDER, MATCH_REFERENCE, MATCH_REFINE,
- MATCH_NO_BRACKET) = range(7)
+ MATCH_NO_BRACKET, MATCH_CANCEL_LR, MATCH_CANCEL_RL) = range(9)
 FOLLOW_VALID, FOLLOW_EDGE, FOLLOW_AMBIGUOUS, FOLLOW_NO_BRACKET, FOLLOW_REFERENCE = range(5)
 
 __all__ = ["SUBPIXEL_CODES", "kernels"]

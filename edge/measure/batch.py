@@ -93,6 +93,8 @@ class StereoMatch:
     max_disparity: int
     predicted: float | None
     settings: MatchSettings
+    x0: int = 0  # the patches' origin in the rectified image (`stereo_request`; reused by `near`)
+    y0: int = 0
 
     def run(self) -> Match:
         s, pred = self.settings, self.predicted
@@ -119,19 +121,31 @@ def match_settings(s: PointSettings) -> MatchSettings:
 
 
 def stereo_request(s: PointSettings, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float,
-                   v: float, pred: float | None, settings: MatchSettings) -> StereoMatch:
+                   v: float, pred: float | None, settings: MatchSettings,
+                   within: StereoMatch | None = None) -> StereoMatch:
     """The match of rectified left point (u, v): patches of the rows the window covers and the columns
     the search needs (narrowed to the prediction when there is one); `settings` is `match_settings(s)`,
-    which a track keeps."""
+    which a track keeps. `within`: a request of this pair whose patches may hold these (no
+    prefilter); then they are cut from them (a patch is the same pixels however it was fetched), not
+    rectified again (the alias and depth checks' windows lie inside the main match's)."""
     h = s.window // 2
     ui, vi = int(round(u)), int(round(v))
     d_hi = s.max_disparity
     if pred is not None:
         d_hi = max(4, min(d_hi, int(math.ceil(pred)) + s.search_radius_px + 1))
     x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
+    y0 = vi - h
+    if within is not None and s.prefilter == "none" and within.x0 <= x0 \
+            and x0 + width <= within.x0 + within.left.shape[1] \
+            and within.y0 <= y0 and y0 + 2 * h + 1 <= within.y0 + within.left.shape[0]:
+        # inside the patches of `within` (the same images): the same pixels, no remap
+        cols = slice(x0 - within.x0, x0 - within.x0 + width)
+        rows = slice(y0 - within.y0, y0 - within.y0 + 2 * h + 1)
+        return StereoMatch(within.left[rows, cols], within.right[rows, cols], u - x0, v - y0, d_hi, pred,
+                           settings, x0, y0)
     get = rect.xsobel_patch if s.prefilter == "xsobel" else rect.patch
-    lp, rp = get(left, 0, x0, vi - h, width, 2 * h + 1), get(right, 1, x0, vi - h, width, 2 * h + 1)
-    return StereoMatch(lp, rp, u - x0, v - (vi - h), d_hi, pred, settings)
+    lp, rp = get(left, 0, x0, y0, width, 2 * h + 1), get(right, 1, x0, y0, width, 2 * h + 1)
+    return StereoMatch(lp, rp, u - x0, v - y0, d_hi, pred, settings, x0, y0)
 
 
 def run_one(steps: Steps) -> bool:

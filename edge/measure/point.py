@@ -380,7 +380,8 @@ class TrackPoint(PointFilter):
             near = (replace(self.s, window=window),
                     replace(self.match_settings, window=window, search_radius=2))
             self._near_settings[window] = near
-        return stereo_request(near[0], left, right, rect, self.u + du, self.v + dv, m.disparity_px, near[1])
+        return stereo_request(near[0], left, right, rect, self.u + du, self.v + dv, m.disparity_px, near[1],
+                              self._last_request)
 
     def _mixed(self, cost: float) -> bool:
         """A match much worse than this track's typical one: the window holds two objects at

@@ -29,7 +29,7 @@ void mc_follow_point(const uint8_t *prev, int64_t pstride, const uint8_t *cur, i
 {
     int h = window / 2, r = radius, s = 2 * r + 1;
     out->status = MC_FOLLOW_REFERENCE;
-    if (window < 3 || window % 2 == 0 || radius < 1 || s > MAX_SIDE)
+    if (window < 3 || window % 2 == 0 || window > 63 || radius < 1 || s > MAX_SIDE)
         return;
     if (!isfinite(x) || !isfinite(y) || !isfinite(predicted_dx) || !isfinite(predicted_dy)
         || fabs(x) > 1e9 || fabs(y) > 1e9 || fabs(predicted_dx) > 1e9 || fabs(predicted_dy) > 1e9)
@@ -58,17 +58,17 @@ void mc_follow_point(const uint8_t *prev, int64_t pstride, const uint8_t *cur, i
     int64_t x0 = xi + pu - r - h, y0 = yi + pv - r - h;
     for (int v = 0; v < s; v++)
         for (int u = 0; u < s; u++) {
-            int64_t sd = 0, sd2 = 0;
+            int32_t sd = 0, sd2 = 0;   /* exact while window^2 255^2 < 2^31 (windows up to 63 px) */
             for (int i = 0; i < window; i++) {
                 const uint8_t *t = prev + (yi - h + i) * pstride + (xi - h);
                 const uint8_t *c = cur + (y0 + v + i) * cstride + (x0 + u);
                 for (int j = 0; j < window; j++) {
-                    int64_t d = (int64_t)t[j] - (int64_t)c[j];
+                    int32_t d = (int32_t)t[j] - (int32_t)c[j];
                     sd += d;
                     sd2 += d * d;
                 }
             }
-            costs[v][u] = nn * sd2 - sd * sd;
+            costs[v][u] = nn * sd2 - (int64_t)sd * sd;
         }
     int iy = 0, ix = 0;
     for (int v = 0; v < s; v++)

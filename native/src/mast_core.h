@@ -40,7 +40,9 @@ enum mc_match_status {
     MC_MATCH_BORDER = 3,      /* "half-pixel passes run off the image ..." */
     MC_MATCH_REFERENCE = 4,   /* not on the fast path: the caller runs the NumPy reference */
     MC_MATCH_REFINE = 5,      /* gates passed, the six-pass Gaussian has no fit: refine in Python */
-    MC_MATCH_NO_BRACKET = 6   /* parabola: "cost curve does not bracket the minimum (den <= 0)" */
+    MC_MATCH_NO_BRACKET = 6,  /* parabola: "cost curve does not bracket the minimum (den <= 0)" */
+    MC_MATCH_CANCEL_LR = 7,   /* "half-pixel cancellation pass has no interior minimum" */
+    MC_MATCH_CANCEL_RL = 8    /* "right-to-left cancellation pass has no interior minimum" */
 };
 #define MC_SUB_NONE 0
 #define MC_SUB_PARABOLA 1
@@ -72,6 +74,10 @@ void mc_match_point(const uint8_t *left, int64_t lstride, const uint8_t *right, 
 int mc_gauss6_q8(const uint8_t *left, int64_t lstride, const uint8_t *right, int64_t rstride, int w, int xl,
                  int64_t d0, int64_t *value_q8);
 
+/* refine(..., "cancel6") (integer, ZSSD): an mc_match_status, and the Q8 disparity if valid */
+int mc_cancel6_q8(const uint8_t *left, int64_t lstride, const uint8_t *right, int64_t rstride, int w, int xl,
+                  int64_t d0, int64_t *value_q8);
+
 /* ---- left-image follow (edge/core/refpoint.py, subpixel "parabola") ---- */
 enum mc_follow_status {
     MC_FOLLOW_VALID = 0,
@@ -90,5 +96,12 @@ void mc_follow_point(const uint8_t *prev, int64_t pstride, const uint8_t *cur, i
                      int cols, double x, double y, double predicted_dx, double predicted_dy, int window,
                      int radius, double noise_dn, double min_ratio, double max_sigma_px,
                      mc_follow_result *out);
+
+/* ---- the ground-plane filter's IMM (edge/measure/groundtrack.py; float, module doc of imm.c) ---- */
+/* x[2][4], p[2][4][4], mu[2] per track, row-major */
+void mc_imm_state(const double *x, const double *p, const double *mu, double *xs, double *ps);
+void mc_imm_predict(double *x, double *p, double *mu, double dt, const double q[2], double quiet_stay_s,
+                    double manoeuvre_stay_s);
+void mc_imm_correct(double *x, double *p, double *mu, const double z[2], const double r[4]);
 
 #endif

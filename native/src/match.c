@@ -112,13 +112,124 @@ int mc_gauss6_q8(const uint8_t *left, int64_t lstride, const uint8_t *right, int
     return 1;
 }
 
+
+/* subpixel.fit_curve_q: Q10 vertex of the parabola through the first minimum of an integer curve
+ * and its neighbours (eq. 5.2), entry k at disparity first + k; 0 where it has none */
+static int fit_curve_q(const int64_t *c, int n, int64_t first, int64_t *fit)
+{
+    int k = 0;
+    for (int j = 1; j < n; j++)
+        if (c[j] < c[k])
+            k = j;
+    if (!(k > 0 && k < n - 1))
+        return 0;
+    int64_t num = c[k - 1] - c[k + 1], den = 2 * (c[k - 1] - 2 * c[k] + c[k + 1]);
+    if (den <= 0 || 2 * (num < 0 ? -num : num) > den)
+        return 0;
+    *fit = (first + k) * ((int64_t)1 << MC_FIT_BITS) + mc_div_round(num * ((int64_t)1 << MC_FIT_BITS), den);
+    return 1;
+}
+
+static uint64_t isqrt64(uint64_t q)
+{
+    uint64_t r = (uint64_t)sqrt((double)q);
+    while (r > 0 && r * r > q)
+        r--;
+    while ((r + 1) * (r + 1) <= q)
+        r++;
+    return r;
+}
+
+/* refine(..., "cancel6") on the integer path with ZSSD (subpixel.cancellation_costs with six=True and
+ * the contrast equalisation, then symmetric6_q8, or symmetric_q8 without the mirrored passes' fits):
+ * MC_MATCH_VALID and *value_q8, or the status of its failure. Windows up to 15 px (every sum below
+ * 2^62); larger ones: MC_MATCH_REFINE (the caller's reference). */
+int mc_cancel6_q8(const uint8_t *left, int64_t lstride, const uint8_t *right, int64_t rstride, int w, int xl,
+                  int64_t d0, int64_t *value_q8)
+{
+    if (w > 15)
+        return MC_MATCH_REFINE;
+    int h = w / 2, wc = w + 5, ecols = 2 * w + 8;
+    int64_t xr = xl - d0, n = (int64_t)w * w;
+    int64_t regs[2][15][20];
+    for (int r = 0; r < w; r++) {
+        const uint8_t *a = left + r * lstride + (xl - h - 2), *b = right + r * rstride + (xr - h - 2);
+        for (int c = 0; c < wc; c++) {
+            regs[0][r][c] = a[c];
+            regs[1][r][c] = b[c];
+        }
+    }
+    /* contrast: the right region scaled so its centre window has the left one's zero-mean energy */
+    int64_t energy[2];
+    for (int s = 0; s < 2; s++) {
+        int64_t s1 = 0, s2 = 0;
+        for (int r = 0; r < w; r++)
+            for (int c = 2; c < 2 + w; c++) {
+                s1 += regs[s][r][c];
+                s2 += regs[s][r][c] * regs[s][r][c];
+            }
+        energy[s] = n * s2 - s1 * s1;
+    }
+    int64_t gain = 1 << MC_SUBPIX_BITS;
+    if (energy[0] > 0 && energy[1] > 0) {
+        uint64_t q = (((uint64_t)energy[0] << (4 * MC_SUBPIX_BITS)) + (uint64_t)(energy[1] / 2)) / (uint64_t)energy[1];
+        int64_t g = mc_round_shift((int64_t)isqrt64(q), MC_SUBPIX_BITS);
+        gain = g < (1 << (MC_SUBPIX_BITS - 1)) ? (1 << (MC_SUBPIX_BITS - 1)) : g > (2 << MC_SUBPIX_BITS) ? (2 << MC_SUBPIX_BITS) : g;
+    }
+    int64_t ext[2][15][38];
+    for (int r = 0; r < w; r++)
+        for (int c = 0; c < wc - 1; c++)
+            for (int s = 0; s < 2; s++) {
+                int64_t scale = s == 0 ? (1 << MC_SUBPIX_BITS) : gain;
+                int64_t v0 = regs[s][r][c] * scale, v1 = regs[s][r][c + 1] * scale;
+                ext[s][r][c] = v0 + v1;
+                ext[s][r][w + 4 + c] = 2 * v0;
+            }
+    (void)ecols;
+    int starts[9] = {0, 1, 2, 3, 4, w + 5, w + 6, w + 7, w + 8};
+    int64_t costs[2][13];
+    for (int s = 0; s < 2; s++)
+        for (int m = 0; m < 13; m++) {
+            int ts = m < 9 ? 2 : w + 6, cs = starts[m < 9 ? m : m - 9];
+            int64_t sd = 0, sd2 = 0;
+            for (int r = 0; r < w; r++)
+                for (int j = 0; j < w; j++) {
+                    int64_t d = ext[s][r][ts + j] - ext[1 - s][r][cs + j];
+                    sd += d;
+                    sd2 += d * d;
+                }
+            costs[s][m] = n * sd2 - sd * sd;
+        }
+    /* the pass curves in ascending disparity (subpixel._split) */
+    int64_t curve[6][5];
+    for (int s = 0; s < 2; s++) {
+        for (int k = 0; k < 5; k++)
+            curve[s == 0 ? 0 : 2][k] = costs[s][4 - k];        /* LR-A, RL-A */
+        for (int k = 0; k < 4; k++) {
+            curve[s == 0 ? 1 : 3][k] = costs[s][8 - k];        /* LR-B, RL-B */
+            curve[s == 0 ? 4 : 5][k] = costs[s][12 - k];       /* LR-B', RL-B' */
+        }
+    }
+    int64_t fa, fb, fra, frb, fm, frm;
+    if (!fit_curve_q(curve[0], 5, d0 - 2, &fa) || !fit_curve_q(curve[1], 4, d0 - 2, &fb))
+        return MC_MATCH_CANCEL_LR;
+    if (!fit_curve_q(curve[2], 5, -d0 - 2, &fra) || !fit_curve_q(curve[3], 4, -d0 - 2, &frb))
+        return MC_MATCH_CANCEL_RL;
+    int ok_m = fit_curve_q(curve[4], 4, d0 - 2, &fm), ok_rm = fit_curve_q(curve[5], 4, -d0 - 2, &frm);
+    if (ok_m && ok_rm)
+        *value_q8 = mc_round_shift(2 * (fa - fra) + fb + fm - frb - frm, MC_FIT_BITS + 3 - MC_SUBPIX_BITS);
+    else
+        *value_q8 = mc_round_shift(fa + fb - fra - frb, MC_FIT_BITS + 2 - MC_SUBPIX_BITS);
+    return MC_MATCH_VALID;
+}
+
 void mc_match_point(const uint8_t *left, int64_t lstride, const uint8_t *right, int64_t rstride, int rows,
                     int cols, double x, double y, int max_disparity, int has_pred, double pred, int radius,
                     const mc_match_params *p, mc_match_result *out)
 {
     int w = p->window, h = w / 2;
     out->status = MC_MATCH_REFERENCE;
-    if (w < 3 || w % 2 == 0 || !isfinite(x) || !isfinite(y) || fabs(x) > 1e9 || fabs(y) > 1e9)
+    if (w < 3 || w % 2 == 0 || w > MAX_W || !isfinite(x) || !isfinite(y) || fabs(x) > 1e9 || fabs(y) > 1e9)
         return;
     if (has_pred && !(isfinite(pred) && fabs(pred) < 1e9))
         return;
@@ -152,16 +263,18 @@ void mc_match_point(const uint8_t *left, int64_t lstride, const uint8_t *right, 
     int n = (int)(hi - lo + 1);
     int64_t costs[MAX_CURVE], nn = (int64_t)w * w;
     for (int k = 0; k < n; k++) {
-        int64_t d = lo + k, sd = 0, sd2 = 0;
+        /* 32-bit sums: |sum D| <= w^2 255, sum D^2 <= w^2 255^2 < 2^31 for windows up to 63 px */
+        int64_t d = lo + k;
+        int32_t sd = 0, sd2 = 0;
         for (int r = 0; r < w; r++) {
             const uint8_t *t = a_band + r * lstride + (xi - h), *c = b_band + r * rstride + (xi - d - h);
             for (int j = 0; j < w; j++) {
-                int64_t diff = (int64_t)t[j] - (int64_t)c[j];
+                int32_t diff = (int32_t)t[j] - (int32_t)c[j];
                 sd += diff;
                 sd2 += diff * diff;
             }
         }
-        costs[k] = p->cost_zssd ? nn * sd2 - sd * sd : sd2;
+        costs[k] = p->cost_zssd ? nn * sd2 - (int64_t)sd * sd : sd2;
     }
     int k0 = 0;
     for (int k = 1; k < n; k++)
@@ -223,9 +336,11 @@ void mc_match_point(const uint8_t *left, int64_t lstride, const uint8_t *right, 
         out->status = MC_MATCH_VALID;
         return;
     }
-    if (p->subpixel == MC_SUB_GAUSS6 && p->cost_zssd
-        && mc_gauss6_q8(a_band, lstride, b_band, rstride, w, (int)xi, d0, &out->value_q8)) {
-        out->status = MC_MATCH_VALID;
+    if (p->subpixel == MC_SUB_GAUSS6 && p->cost_zssd) {
+        if (mc_gauss6_q8(a_band, lstride, b_band, rstride, w, (int)xi, d0, &out->value_q8))
+            out->status = MC_MATCH_VALID;
+        else   /* no Gaussian through this window: the six passes' parabola fits, as refine falls back */
+            out->status = mc_cancel6_q8(a_band, lstride, b_band, rstride, w, (int)xi, d0, &out->value_q8);
         return;
     }
     out->status = MC_MATCH_REFINE;

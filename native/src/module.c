@@ -7,6 +7,9 @@
  *         min_ratio, max_sigma_px, status, ints, floats)   many points' match_point
  *   follow(prevs, curs, xs, ys, pdxs, pdys, window, radius, noise_dn, min_ratio, max_sigma_px,
  *          status, floats)                             many points' follow_point (parabola)
+ *   imm_predict(x, p, mu, dt, q_quiet, q_manoeuvre, quiet_stay_s, manoeuvre_stay_s)
+ *   imm_correct(x, p, mu, east_m, north_m, r)          one track's ground filter, in place
+ *   imm_state(x, p, mu, xs, ps)                        its combined state into xs (4), ps (16)
  *
  * Arrays come in as buffers: images 2-D uint8 with unit column stride; the per-point inputs and
  * the outputs C-contiguous, of the item sizes stated at each function. */
@@ -293,11 +296,105 @@ r_x:
     return res;
 }
 
+/* float64 C-contiguous buffers of a track's IMM: x (8), p (32), mu (2) */
+static int imm_buffers(PyObject *const *args, Py_buffer *bx, Py_buffer *bp, Py_buffer *bm)
+{
+    if (get_flat(args[0], bx, 8, 8, 1, "x") < 0)
+        return -1;
+    if (get_flat(args[1], bp, 8, 32, 1, "p") < 0) {
+        PyBuffer_Release(bx);
+        return -1;
+    }
+    if (get_flat(args[2], bm, 8, 2, 1, "mu") < 0) {
+        PyBuffer_Release(bx);
+        PyBuffer_Release(bp);
+        return -1;
+    }
+    return 0;
+}
+
+static void imm_release(Py_buffer *bx, Py_buffer *bp, Py_buffer *bm)
+{
+    PyBuffer_Release(bx);
+    PyBuffer_Release(bp);
+    PyBuffer_Release(bm);
+}
+
+static PyObject *py_imm_predict(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 8) {
+        PyErr_SetString(PyExc_TypeError, "imm_predict(x, p, mu, dt, q_quiet, q_manoeuvre, quiet_stay_s, "
+                                         "manoeuvre_stay_s)");
+        return NULL;
+    }
+    double dt = PyFloat_AsDouble(args[3]), q[2] = {PyFloat_AsDouble(args[4]), PyFloat_AsDouble(args[5])};
+    double stay0 = PyFloat_AsDouble(args[6]), stay1 = PyFloat_AsDouble(args[7]);
+    if (PyErr_Occurred())
+        return NULL;
+    Py_buffer bx, bp, bm;
+    if (imm_buffers(args, &bx, &bp, &bm) < 0)
+        return NULL;
+    mc_imm_predict(bx.buf, bp.buf, bm.buf, dt, q, stay0, stay1);
+    imm_release(&bx, &bp, &bm);
+    Py_RETURN_NONE;
+}
+
+static PyObject *py_imm_correct(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "imm_correct(x, p, mu, east_m, north_m, r)");
+        return NULL;
+    }
+    double z[2] = {PyFloat_AsDouble(args[3]), PyFloat_AsDouble(args[4])};
+    if (PyErr_Occurred())
+        return NULL;
+    Py_buffer bx, bp, bm, br;
+    if (get_flat(args[5], &br, 8, 4, 0, "r") < 0)
+        return NULL;
+    if (imm_buffers(args, &bx, &bp, &bm) < 0) {
+        PyBuffer_Release(&br);
+        return NULL;
+    }
+    mc_imm_correct(bx.buf, bp.buf, bm.buf, z, br.buf);
+    imm_release(&bx, &bp, &bm);
+    PyBuffer_Release(&br);
+    Py_RETURN_NONE;
+}
+
+static PyObject *py_imm_state(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "imm_state(x, p, mu, xs, ps)");
+        return NULL;
+    }
+    Py_buffer bx, bp, bm, bxs, bps;
+    if (imm_buffers(args, &bx, &bp, &bm) < 0)
+        return NULL;
+    PyObject *res = NULL;
+    if (get_flat(args[3], &bxs, 8, 4, 1, "xs") < 0)
+        goto out;
+    if (get_flat(args[4], &bps, 8, 16, 1, "ps") < 0) {
+        PyBuffer_Release(&bxs);
+        goto out;
+    }
+    mc_imm_state(bx.buf, bp.buf, bm.buf, bxs.buf, bps.buf);
+    PyBuffer_Release(&bxs);
+    PyBuffer_Release(&bps);
+    res = Py_None;
+    Py_INCREF(res);
+out:
+    imm_release(&bx, &bp, &bm);
+    return res;
+}
+
 static PyMethodDef methods[] = {
     {"init", (PyCFunction)py_init, METH_O, "init(log2_table): the Q24 log2 table (1025 int64)"},
     {"remap", (PyCFunction)(void (*)(void))py_remap, METH_FASTCALL, "remap(image, map1, map2, x0, y0, out)"},
     {"match", (PyCFunction)(void (*)(void))py_match, METH_FASTCALL, "many points' match_point"},
     {"follow", (PyCFunction)(void (*)(void))py_follow, METH_FASTCALL, "many points' follow_point"},
+    {"imm_predict", (PyCFunction)(void (*)(void))py_imm_predict, METH_FASTCALL, "GroundTrack._predict"},
+    {"imm_correct", (PyCFunction)(void (*)(void))py_imm_correct, METH_FASTCALL, "GroundTrack's model updates"},
+    {"imm_state", (PyCFunction)(void (*)(void))py_imm_state, METH_FASTCALL, "GroundTrack.state"},
     {NULL, NULL, 0, NULL},
 };
 
