@@ -43,6 +43,7 @@ from edge.core.refpoint import FollowResult
 from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2, MAX_SHIP_SPEED_MPS
 from edge.measure.aliascheck import AliasCheck, check_window
 from edge.measure.batch import (
+    Checks,
     Follow,
     MatchSettings,
     Request,
@@ -189,6 +190,7 @@ class TrackPoint(PointFilter):
                     assert self.last_left is not None  # a template is taken only after a measured pair
                     self._take_template(self.last_left, rect)  # moved too far for the kept patch
                 found, origin = (yield self._follow(left, rect, pu)), self.template_at[:2]
+                assert isinstance(found, FollowResult)  # the answer to a Follow
                 if not found.valid and hint is not None and abs(hint - own) > FOLLOW_GATE_PX:
                     guided = self._guided_follow(left, rect, hint)  # the motion changed: where the box went
             if guided is not None:
@@ -331,7 +333,7 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
 
     def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier
-                 ) -> Generator[Request, FollowResult | Match, None]:
+                 ) -> Generator[Request, FollowResult | Match | list[Match], None]:
         self.last_left, self.last_left_frame = left, self.frame
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
@@ -346,15 +348,20 @@ class TrackPoint(PointFilter):
         m = yield self._last_request
         assert isinstance(m, Match)  # the answer to a StereoMatch
         self.match = m
-        if self.s.alias_check and m.valid:
-            check = yield self._near_request(m, left, right, rect, check_window(self.s.window))
-            assert isinstance(check, Match)  # the answer to a StereoMatch
-            self.alias.add(m, check)
-        if self.s.depth_check and m.valid and self.frame % depth_every(self.s.fps) == 0:
-            for k, (du, dv) in enumerate(OFFSETS):
-                sub = yield self._near_request(m, left, right, rect, SUB_WINDOW, du, dv)
-                assert isinstance(sub, Match)
-                self.depth.add(k, m, sub)
+        # the cross-checks of a valid match, asked together (each depends on the main match alone)
+        alias = self.s.alias_check and m.valid
+        depth = self.s.depth_check and m.valid and self.frame % depth_every(self.s.fps) == 0
+        if alias or depth:
+            near = [self._near_request(m, left, right, rect, check_window(self.s.window))] if alias else []
+            if depth:
+                near += [self._near_request(m, left, right, rect, SUB_WINDOW, du, dv) for du, dv in OFFSETS]
+            checks = yield Checks(tuple(near))
+            assert isinstance(checks, list)  # the answer to Checks
+            if alias:
+                self.alias.add(m, checks[0])
+            if depth:
+                for k, sub in enumerate(checks[1:] if alias else checks):
+                    self.depth.add(k, m, sub)
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)
         if not self.accepted and self.kalman is not None and self.kalman.running:
