@@ -320,11 +320,18 @@ def column_noise_px(columns: list[tuple[float, float]], floor_px: float = COLUMN
     # the least-squares line about the mean time, its residuals summed in Python floats (np.linalg.lstsq
     # took 20-40 us a call for these few samples; the two agree to ~1e-15 of the columns,
     # tests/edge/measure/test_groundtrack.py)
-    t_mean = sum(c[0] for c in columns) / n
-    u_mean = sum(c[1] for c in columns) / n
-    stt = sum((c[0] - t_mean) ** 2 for c in columns)
-    slope = sum((c[0] - t_mean) * (c[1] - u_mean) for c in columns) / stt if stt > 0 else 0.0
-    rss = sum((c[1] - u_mean - slope * (c[0] - t_mean)) ** 2 for c in columns)
+    ts, us = zip(*columns, strict=True)
+    t_mean, u_mean = sum(ts) / n, sum(us) / n
+    stt = stu = 0.0
+    for t, u in columns:
+        dt = t - t_mean
+        stt += dt * dt
+        stu += dt * (u - u_mean)
+    slope = stu / stt if stt > 0 else 0.0
+    rss = 0.0
+    for t, u in columns:
+        e = u - u_mean - slope * (t - t_mean)
+        rss += e * e
     return max(floor_px, math.sqrt(rss / (n - 2)))
 
 
@@ -346,6 +353,7 @@ class _Entry:
     sog_shown: bool = False  # the reporting latch (`GroundTracks._latch`)
     cog_shown: bool = False
     centres: deque[tuple[float, float]] = field(default_factory=deque)  # (t s, detected box centre px)
+    centres_noise_px: float | None = None  # column_noise_px of `centres` as they are (None: not computed)
     offset_px: float | None = None  # the box centre's last known offset from the followed point
 
 
@@ -413,14 +421,18 @@ class GroundTracks:
         entry = self._entry(track_id)
         if jumped:
             entry.centres.clear()
-            entry.offset_px = None
+            entry.offset_px = entry.centres_noise_px = None
         if detected:
             entry.centres.append((t_s, centre_px))
+            entry.centres_noise_px = None
         while entry.centres and entry.centres[0][0] < t_s - BOX_FIT_S:
             entry.centres.popleft()
+            entry.centres_noise_px = None
         if len(entry.centres) >= BOX_MIN_SAMPLES:
             entry.offset_px = centre_px - point_px
-            return centre_px, max(BOX_CENTRE_FLOOR_PX, column_noise_px(list(entry.centres), floor_px=0.0))
+            if entry.centres_noise_px is None:  # the centres change on detection pairs only
+                entry.centres_noise_px = column_noise_px(list(entry.centres), floor_px=0.0)
+            return centre_px, max(BOX_CENTRE_FLOOR_PX, entry.centres_noise_px)
         if entry.offset_px is None:
             entry.offset_px = centre_px - point_px
         return point_px + entry.offset_px, point_noise_px
