@@ -30,7 +30,8 @@ FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-
 READ_DOM = """JSON.stringify({
   loads: {left: Number(document.getElementById('left').dataset.loads),
           right: Number(document.getElementById('right').dataset.loads)},
-  tracks: [...document.querySelectorAll('#tracks tbody tr')].map(tr => [...tr.cells].map(td => td.textContent)),
+  tracks: [...document.querySelectorAll('#tracks tbody tr')]
+    .map(tr => [...tr.cells].map(td => td.textContent)),
   state: document.getElementById('state').textContent,
   outputs: document.querySelectorAll('#outputs tbody tr').length,
   stages: document.querySelectorAll('#stages tbody tr').length,

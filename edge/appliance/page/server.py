@@ -5,8 +5,10 @@ two technicians and a Prometheus scraper; http.server does that with no new depe
 loop to share with the daemon, and nothing to import while the page is off. Its weak points for a
 network-facing service are bounded here:
 
-- clients: at most `max_clients` connections are served at once; one more is closed at accept,
-  counted (`refused`), so a flood costs the daemon an accept and a close, never a thread;
+- clients: at most `max_clients` connections are served at once. When all are taken, the oldest
+  connection still sending its request head is closed to make room (a slowloris flood cannot keep
+  a technician out: a real client sends its head at once); failing that the new one is closed at
+  accept, counted (`refused_connections`), so a flood costs the daemon an accept and a close;
 - requests: one request per connection (HTTP/1.0 style, no keep-alive); its head (request line and
   headers) must arrive within `HEAD_TIMEOUT_S` in at most `MAX_HEAD_BYTES`, or the connection gets
   400/431 and is closed; a body is never read; only GET and HEAD exist (others: 501);
@@ -111,6 +113,7 @@ class PageServer(ThreadingHTTPServer):
         self.routes, self.token = routes, token
         self._slots = threading.BoundedSemaphore(max_clients)
         self._lock = threading.Lock()
+        self._reading: dict[socket.socket, float] = {}  # connections still sending their head: since
         self.counts: Counter[str] = Counter()
         super().__init__(address, Handler)
 
@@ -122,8 +125,30 @@ class PageServer(ThreadingHTTPServer):
         with self._lock:
             return dict(self.counts)
 
+    def reading(self, conn: socket.socket, started: bool) -> None:
+        with self._lock:
+            if started:
+                self._reading[conn] = time.monotonic()
+            else:
+                self._reading.pop(conn, None)
+
+    def _evict(self) -> bool:
+        """Close the oldest connection still sending its head; whether there was one."""
+        with self._lock:
+            if not self._reading:
+                return False
+            conn = min(self._reading, key=self._reading.__getitem__)
+            del self._reading[conn]
+            self.counts["evicted_connections"] += 1
+        try:
+            conn.shutdown(socket.SHUT_RDWR)  # its recv returns at once; its thread frees the slot
+        except OSError:
+            pass
+        return True
+
     def process_request(self, request: Any, client_address: Any) -> None:
-        if not self._slots.acquire(blocking=False):
+        room = self._slots.acquire(blocking=False) or (self._evict() and self._slots.acquire(timeout=0.2))
+        if not room:
             self.count("refused_connections")
             self.shutdown_request(request)
             return
@@ -161,6 +186,13 @@ class Handler(BaseHTTPRequestHandler):
     def _read_head(self) -> bytes | None:
         """The request head within the time and size bounds (else 400/431, connection closed)."""
         conn: socket.socket = self.connection
+        self.server.reading(conn, True)
+        try:
+            return self._receive_head(conn)
+        finally:
+            self.server.reading(conn, False)
+
+    def _receive_head(self, conn: socket.socket) -> bytes | None:
         buf = b""
         end_s = time.monotonic() + HEAD_TIMEOUT_S
         while b"\r\n\r\n" not in buf and b"\n\n" not in buf:
