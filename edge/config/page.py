@@ -66,10 +66,10 @@ def read_token(cfg: PageConfig, file: str | Path | None) -> str | None:
         raise ConfigError(file, key, "a readable token file", f"{path}: {exc}") from None
     if st.st_uid != os.geteuid() or stat.S_IMODE(st.st_mode) & 0o077:
         raise ConfigError(file, key, "a token file only the daemon's user can read (owner it, chmod 600)",
-                          f"{path}: uid {st.st_uid}, mode {stat.S_IMODE(st.st_mode):04o}")
+                          f"mode {stat.S_IMODE(st.st_mode):04o}, uid {st.st_uid}: {path}")
     if len(text) < MIN_TOKEN_CHARS or any(c.isspace() or not c.isprintable() for c in text):
         raise ConfigError(file, key, f"a token of at least {MIN_TOKEN_CHARS} printable characters, "
-                          "no spaces (e.g. openssl rand -hex 16)", f"{path}: {len(text)} characters")
+                          "no spaces (e.g. openssl rand -hex 16)", f"{len(text)} characters: {path}")
     return text
 
 

@@ -173,6 +173,7 @@ class Handler(BaseHTTPRequestHandler):
     server_version = "mast-stereo"
     sys_version = ""
     protocol_version = "HTTP/1.0"
+    default_request_version = "HTTP/1.0"  # a garbage request line still gets a status line
     timeout = IO_TIMEOUT_S
 
     def handle(self) -> None:
