@@ -2,7 +2,8 @@
 # idempotently, and quickly when everything is already there.
 #  - as root: Debian packages needed to build systemd-python (libsystemd-dev, pkg-config)
 #    and the real peers the tests talk to (socat for pty pairs, mbpoll as an independent
-#    Modbus client, tshark as an independent ASTERIX decoder; g++ builds asterix-decoder);
+#    Modbus client, tshark as an independent ASTERIX decoder; g++ builds asterix-decoder;
+#    chromium, headless, opens the maintenance page);
 #  - a venv in .venv with the project installed editable, with the test, plots and docs extras.
 set -euo pipefail
 # `TOOL -h|--help`: the calling tool's header comment (its usage), before anything is installed.
@@ -13,7 +14,7 @@ fi
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 
-APT_PACKAGES=(libsystemd-dev pkg-config socat mbpoll tshark g++)
+APT_PACKAGES=(libsystemd-dev pkg-config socat mbpoll tshark g++ chromium)
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
