@@ -26,10 +26,12 @@ import cv2
 import numpy as np
 
 from drivers.camera.base import FramePair
+from edge.core.camera import CameraModel
 from edge.core.masks import cast_to_sea, horizon_rows
 from edge.fix import ShipFix, TrackStatus
 from edge.pipeline import Pipeline
 
+HORIZON_BAND_ROWS = 16  # picture rows per lens-model call while finding the horizon
 VIEWER_IDLE_S = 5.0  # no picture requested this long: stop asking the processing thread for frames
 JPEG_QUALITY = 75
 MASK_BGR = np.array((0, 0, 255), np.float32)
@@ -190,20 +192,31 @@ class Pictures:
             mask = self.search_mask
             excluded = None if mask is None else cv2.resize(
                 (~mask).astype(np.uint8), size, interpolation=cv2.INTER_NEAREST).astype(bool)
-            horizons: list[np.ndarray | None] = []
-            xs = (np.arange(size[0]) + 0.5) / scale - 0.5  # the picture's pixel centres, raw pixels
-            ys = (np.arange(size[1]) + 0.5) / scale - 0.5
-            uv = np.stack(np.meshgrid(xs, ys), axis=-1)
-            for side, camera in enumerate((rig.left, rig.right)):
-                sea = cast_to_sea(camera.pixel_to_normalised(uv), (side - 0.5) * rig.baseline_m,
-                                  pipe.site.height_m)
-                rows = horizon_rows(sea)
-                cols = np.flatnonzero(np.isfinite(rows))
-                horizons.append(None if len(cols) < 2 else np.round(
-                    np.stack([cols, rows[cols]], axis=-1)).astype(np.int32).reshape(-1, 1, 2))
+            horizons = [_horizon(camera, (side - 0.5) * rig.baseline_m, pipe.site.height_m, size, scale)
+                        for side, camera in enumerate((rig.left, rig.right))]
             self._static = (key[0], key[1], horizons, excluded)
         _, _, lines, excl = self._static
         return excl, lines
+
+
+def _horizon(camera: CameraModel, x_m: float, height_m: float, size: tuple[int, int], scale: float
+             ) -> np.ndarray | None:
+    """The camera's sea horizon as a polyline on the picture: per picture column, the first picture
+    row whose ray meets the sea (edge.core.masks), found in bands of rows from the top so the lens
+    model's temporaries stay small (the whole picture at once peaked at 60 MiB)."""
+    xs = (np.arange(size[0]) + 0.5) / scale - 0.5  # the picture's pixel centres, raw pixels
+    first = np.full(size[0], np.nan)
+    for r0 in range(0, size[1], HORIZON_BAND_ROWS):
+        ys = (np.arange(r0, min(size[1], r0 + HORIZON_BAND_ROWS)) + 0.5) / scale - 0.5
+        uv = np.stack(np.meshgrid(xs, ys), axis=-1)
+        rows = horizon_rows(cast_to_sea(camera.pixel_to_normalised(uv), x_m, height_m)) + 0.5 + r0
+        first = np.where(np.isnan(first), rows, first)
+        if np.isfinite(first).all():
+            break
+    cols = np.flatnonzero(np.isfinite(first))
+    if len(cols) < 2:
+        return None
+    return np.round(np.stack([cols, first[cols] - 0.5], axis=-1)).astype(np.int32).reshape(-1, 1, 2)
 
 
 def _pt(x: float, y: float, scale: float) -> tuple[int, int]:
