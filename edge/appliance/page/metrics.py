@@ -19,7 +19,6 @@ counters, the fault log's starts). Families (docs/page.md lists them):
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING
 
 from prometheus_client.core import (
     CollectorRegistry,
@@ -31,11 +30,8 @@ from prometheus_client.core import (
 from prometheus_client.exposition import generate_latest
 
 from edge.appliance.health import HealthState
-from edge.appliance.page.state import counters
+from edge.appliance.page.state import Watched, counters
 from edge.fix import TrackStatus
-
-if TYPE_CHECKING:
-    from edge.appliance.daemon import Appliance
 
 CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
 STATE_VALUE = {HealthState.OK: 0, HealthState.DEGRADED: 1, HealthState.STALLED: 2}
@@ -44,7 +40,7 @@ STATE_VALUE = {HealthState.OK: 0, HealthState.DEGRADED: 1, HealthState.STALLED: 
 class ApplianceCollector:
     """Reads `app` (and the page's own counters, `page_counters`) at each scrape."""
 
-    def __init__(self, app: Appliance, page_counters: Callable[[], dict[str, int]]) -> None:
+    def __init__(self, app: Watched, page_counters: Callable[[], dict[str, int]]) -> None:
         self.app, self.page_counters = app, page_counters
 
     def collect(self) -> Iterator[Metric]:
@@ -111,7 +107,7 @@ class ApplianceCollector:
 class Metrics:
     """The exposition of one appliance: `render()` is the body of GET /metrics."""
 
-    def __init__(self, app: Appliance, page_counters: Callable[[], dict[str, int]]) -> None:
+    def __init__(self, app: Watched, page_counters: Callable[[], dict[str, int]]) -> None:
         self.registry = CollectorRegistry(auto_describe=False)
         self.registry.register(ApplianceCollector(app, page_counters))
 

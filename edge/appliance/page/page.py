@@ -19,18 +19,14 @@ import logging
 import threading
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from drivers.camera.base import FramePair
 from edge.appliance.page.metrics import CONTENT_TYPE, Metrics
 from edge.appliance.page.picture import Pictures
 from edge.appliance.page.server import CSP, PageServer, Reply, docs_file, json_reply, static_type, text
-from edge.appliance.page.state import page_state
+from edge.appliance.page.state import Watched, page_state
 from edge.config.page import PageConfig
 from edge.fix import ShipFix
-
-if TYPE_CHECKING:
-    from edge.appliance.daemon import Appliance
 
 log = logging.getLogger(__name__)
 
@@ -41,7 +37,7 @@ NO_DOCS = (b"<!doctype html><title>documentation</title><p>The documentation sit
 
 
 class Page:
-    def __init__(self, app: Appliance, cfg: PageConfig, token: str | None) -> None:
+    def __init__(self, app: Watched, cfg: PageConfig, token: str | None) -> None:
         self.app, self.cfg, self.token = app, cfg, token
         self.pictures = Pictures(app.pipeline, app.plan.search_mask, cfg.image_hz, cfg.image_width)
         self.metrics = Metrics(app, self.counters)

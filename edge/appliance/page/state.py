@@ -13,24 +13,72 @@ import math
 import shutil
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
+from drivers.leds.base import LedPanel
 from edge.appliance.console import rows
-from edge.appliance.health import HealthSnapshot, Status
+from edge.appliance.handover import LatestPair
+from edge.appliance.health import HealthMonitor, HealthSnapshot, Status
+from edge.appliance.journal import FaultLog
+from edge.appliance.sources import SourcePlan
+from edge.appliance.state import Persistence
+from edge.appliance.timing import StageTimes
+from edge.chain import Chain
+from edge.config.app import AppConfig
 from edge.encode.nmea import fix_name
 from edge.fix import ShipFix
-
-if TYPE_CHECKING:
-    from edge.appliance.daemon import Appliance
+from edge.outputs.fanout import Outputs
+from edge.outputs.nmea_stream import NmeaStreamOutput
+from edge.pipeline import Pipeline
 
 MB = 2**20
+
+
+class Watched(Protocol):
+    """What the page reads of the running appliance (edge.appliance.daemon.Appliance), named here so
+    the page does not import the daemon that starts it."""
+
+    @property
+    def config(self) -> AppConfig: ...
+    @property
+    def plan(self) -> SourcePlan: ...
+    @property
+    def chain(self) -> Chain: ...
+    @property
+    def pipeline(self) -> Pipeline: ...
+    @property
+    def outputs(self) -> Outputs: ...
+    @property
+    def health(self) -> HealthMonitor: ...
+    @property
+    def queue(self) -> LatestPair: ...
+    @property
+    def faults(self) -> FaultLog: ...
+    @property
+    def leds(self) -> LedPanel | None: ...
+    @property
+    def persistence(self) -> Persistence | None: ...
+    @property
+    def timing(self) -> StageTimes: ...
+    @property
+    def last_fixes(self) -> list[ShipFix]: ...
+    @property
+    def extra_nmea(self) -> tuple[NmeaStreamOutput, ...]: ...
+    @property
+    def capture_errors(self) -> int: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def reloads(self) -> int: ...
+
+    def status_line(self, snap: HealthSnapshot) -> str: ...
 
 
 def _num(value: float | None, decimals: int) -> float | None:
     return None if value is None or not math.isfinite(value) else round(value, decimals)
 
 
-def counters(app: Appliance) -> dict[str, int]:
+def counters(app: Watched) -> dict[str, int]:
     """The daemon's own counters (the ones `run` logs at exit), as /metrics exports them."""
     c = app.pipeline.counters
     return {"pairs": c.pairs, "processed": c.processed, "dropped": app.queue.dropped,
@@ -52,7 +100,7 @@ def track_rows(fixes: list[ShipFix], numbers: dict[int, int]) -> list[dict[str, 
     return out
 
 
-def _outputs(app: Appliance, snap: HealthSnapshot) -> list[dict[str, Any]]:
+def _outputs(app: Watched, snap: HealthSnapshot) -> list[dict[str, Any]]:
     cfg = app.config.outputs
     stages = {s.name: s for s in snap.stages}
     listed: list[tuple[str, str, str]] = [("nmea", "NMEA serial", p.url) for p in cfg.nmea]
@@ -78,7 +126,7 @@ def _outputs(app: Appliance, snap: HealthSnapshot) -> list[dict[str, Any]]:
     return out
 
 
-def _alerts(app: Appliance) -> list[dict[str, Any]]:
+def _alerts(app: Watched) -> list[dict[str, Any]]:
     manager = app.chain.alerts
     if manager is None:
         return []
@@ -97,7 +145,7 @@ def _alerts(app: Appliance) -> list[dict[str, Any]]:
             for a in active]
 
 
-def _disk(app: Appliance) -> dict[str, Any]:
+def _disk(app: Watched) -> dict[str, Any]:
     where = app.persistence.keeper.path.parent if app.persistence is not None else Path.cwd()
     try:
         usage = shutil.disk_usage(where)
@@ -108,7 +156,7 @@ def _disk(app: Appliance) -> dict[str, Any]:
             "min_free_mb": need, "ok": usage.free >= need * MB}
 
 
-def page_state(app: Appliance, pictures: dict[str, int]) -> dict[str, Any]:
+def page_state(app: Watched, pictures: dict[str, int]) -> dict[str, Any]:
     """Everything the page shows; `pictures`: the latest picture's number per side."""
     snap = app.health.snapshot()
     fixes = list(app.last_fixes)
