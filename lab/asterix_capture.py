@@ -84,6 +84,7 @@ class TsharkVerdict:
     packets: int = 0
     malformed: int = 0
     categories: Counter[str] = field(default_factory=Counter)
+    message_types: Counter[int] = field(default_factory=Counter)  # I010/000, records
     tre: int = 0  # I010/170 TRE set, records
     numbers: set[int] = field(default_factory=set)  # I010/161 track numbers seen
     error: str = ""  # why tshark could not run
@@ -96,17 +97,19 @@ def tshark_verdict(path: Path, port: int) -> TsharkVerdict:
         return TsharkVerdict(error="tshark not installed")
     run = subprocess.run(["tshark", "-r", str(path), "-d", f"udp.port=={port},asterix", "-T", "fields",
                           "-e", "_ws.malformed", "-e", "asterix.category", "-e", "asterix.010_161_TRK",
-                          "-e", "asterix.010_170_TRE"], capture_output=True, text=True, timeout=600)
+                          "-e", "asterix.010_170_TRE", "-e", "asterix.010_000_VALUE"],
+                         capture_output=True, text=True, timeout=600)
     if run.returncode != 0:
         return TsharkVerdict(error=f"tshark exit {run.returncode}: {run.stderr.strip()[-200:]}")
     verdict = TsharkVerdict()
     for line in run.stdout.splitlines():
-        malformed, category, numbers, tre = (line.split("\t") + ["", "", "", ""])[:4]
+        malformed, category, numbers, tre, kinds = (line.split("\t") + [""] * 5)[:5]
         verdict.packets += 1
         verdict.malformed += bool(malformed) or "Malformed" in line
         verdict.categories[category or "none"] += 1
         verdict.numbers.update(int(n) for n in numbers.split(",") if n)
         verdict.tre += tre.split(",").count("1")
+        verdict.message_types.update(int(k) for k in kinds.split(",") if k)
     verdict.malformed += run.stderr.count("Malformed")
     return verdict
 

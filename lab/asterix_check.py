@@ -18,7 +18,9 @@ exposure (time of day within 1/128 s, the nearest position). Checks, per recordi
   and no report before it does (a track ends once, at its drop from the tracker).
 
 Prints one table row per recording and exits 1 if any check fails. `--bench N` also prints
-the output's CPU cost per pair with N tracks (the median of 7 runs of 200 pairs).
+the output's CPU cost per pair with N tracks (the median of 7 runs of 200 pairs). `--live MINUTES`
+runs the daemon for that long with ASTERIX to a receiver on loopback and has tshark decode
+every datagram (`lab.asterix_live`; `--recording DIR` instead of the demo's, `--out DIR`).
 """
 
 from __future__ import annotations
@@ -306,7 +308,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--config", type=Path, help="configuration (outputs.asterix, pipeline settings)")
     parser.add_argument("--bench", type=int, metavar="TRACKS",
                         help="also print the output's CPU cost per pair with this many tracks")
+    parser.add_argument("--live", type=float, metavar="MINUTES",
+                        help="run the daemon this long with ASTERIX to loopback; tshark decodes what arrived")
+    parser.add_argument("--recording", type=Path, help="--live: the recording the daemon replays "
+                        "(default: the demo's, out/demo/akashi-crossing, rendered if missing)")
+    parser.add_argument("--out", type=Path,
+                        help="--live: where the config, log and pcap go (out/asterix-live)")
     args = parser.parse_args(argv)
+    if args.live:
+        from lab import asterix_live
+
+        return asterix_live.main(args.live, args.recording, args.out or asterix_live.ROOT / "out" / "asterix-live")
     if args.bench:
         step_ms, record_us = bench_publish(args.bench)
         print(f"ASTERIX publish, {args.bench} tracks: {step_ms:.3f} ms CPU per pair, "
