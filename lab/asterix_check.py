@@ -318,7 +318,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.live:
         from lab import asterix_live
 
-        return asterix_live.main(args.live, args.recording, args.out or asterix_live.ROOT / "out" / "asterix-live")
+        out = args.out or asterix_live.ROOT / "out" / "asterix-live"
+        return asterix_live.main(args.live, args.recording, out)
     if args.bench:
         step_ms, record_us = bench_publish(args.bench)
         print(f"ASTERIX publish, {args.bench} tracks: {step_ms:.3f} ms CPU per pair, "
