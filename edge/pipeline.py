@@ -14,6 +14,11 @@ an exception deep in a track) is counted and skipped, never raised: the
 daemon must keep running. Gaps in `t_ns` longer than a frame period are
 counted as skipped pairs and the filters coast through them.
 
+Every track the tracker holds is in every step's fixes from its first fix until its drop: in a pair
+where its point cannot be ranged on (disparity unknown, or scattering more than the usable bound)
+its last measured fix is coasted to the pair (`edge.measure.coast`), so no output sees a track end
+and start again while the tracker still holds it.
+
 Speed and course come from each track's ground-plane filter (`edge.measure.groundtrack`: an IMM of
 two constant-velocity Kalman filters on east/north, fed each pair's own triangulated position with
 its anisotropic covariance). They are left unknown (None: empty in TTM, the "unknown" value on
