@@ -25,6 +25,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "record": ("edge.commands.record", "capture pairs from the configured cameras into a recording"),
     "replay": ("edge.commands.replay", "run the pipeline over a recording: NMEA and a per-fix CSV"),
     "selftest": ("edge.commands.selftest", "the technician's checks: PASS/FAIL table, exit = failures"),
+    "masks": ("edge.commands.masks", "draw the site masks and the horizon over a left frame (PNG)"),
 }
 
 

@@ -40,6 +40,7 @@ from edge.config.app import PipelineConfig
 from edge.config.calibration import Calibration
 from edge.core.calibsigma import Pointing
 from edge.core.geo import enu_to_world, range_bearing, speed_course, world_to_enu, world_to_latlon
+from edge.core.match import subpixel_methods
 from edge.core.rectify import Rectifier
 from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
@@ -47,6 +48,7 @@ from edge.fix import ShipFix, TrackStatus
 from edge.measure.coast import coast
 from edge.measure.detect import Detector
 from edge.measure.groundtrack import GroundSettings, GroundTracks, PairFix, column_noise_px, pair_fix
+from edge.measure.seadetect import SeaDetector
 from edge.measure.settings import FILTERS, SUBPIXELS, PointSettings
 from edge.measure.tracks import TableSettings, Track, TrackTable
 
@@ -65,6 +67,7 @@ class Counters:
     failed: int = 0  # pairs abandoned after an unexpected error
     gaps: int = 0  # frame periods without a pair (dropped upstream), coasted through
     detections: int = 0  # detection passes run
+    masked: int = 0  # detections whose waterline lay in a site mask (masks:), not used
     fixes: int = 0
 
 
@@ -73,20 +76,21 @@ class Pipeline:
 
     def __init__(self, calibration: Calibration, config: PipelineConfig | None = None, *, fps: float = 10.0,
                  site: Site | None = None, subpixel: str = PointSettings.subpixel, filter: str | None = None,
-                 utc_offset_ns: int = 0) -> None:
+                 utc_offset_ns: int = 0, search_mask: np.ndarray | None = None) -> None:
         cfg = config or PipelineConfig()
         exp = cfg.experimental  # research switches: the defaults are the product
         site = site or calibration.site
         if site is None:
             raise ValueError("the pipeline needs a site (lat/lon/height/heading) for positions")
-        if subpixel not in SUBPIXELS or (filter is not None and filter not in FILTERS):
+        if subpixel not in SUBPIXELS + subpixel_methods() or (filter is not None and filter not in FILTERS):
             raise ValueError(f"subpixel must be one of {SUBPIXELS}, filter one of {FILTERS}")
         self.site, self.fps, self.cfg = site, float(fps), cfg
         self.utc_offset_ns = int(utc_offset_ns)
         self.rig = calibration.rig
         self.rect = Rectifier(self.rig)
-        self.detector = Detector(self.rect, site.height_m, decimation=cfg.detect_decimation,
-                                 min_ship_px=cfg.min_ship_px)
+        kind = SeaDetector if exp.detector == "seaclutter" else Detector
+        self.detector = kind(self.rect, site.height_m, decimation=cfg.detect_decimation,
+                             min_ship_px=cfg.min_ship_px)
         self.point_settings = PointSettings(
             fps=self.fps, window=cfg.window, max_disparity=cfg.max_disparity, cost=exp.cost,
             prefilter=cfg.prefilter, subpixel=subpixel,
@@ -100,6 +104,11 @@ class Pipeline:
                                  calibration.sigma,
                                  site.tilt_sigma_deg or 0.0)
         self.table.pointing = self.pointing
+        self.search_mask = None if search_mask is None else np.asarray(search_mask, dtype=bool)
+        if self.search_mask is not None and self.search_mask.shape != (self.rig.height, self.rig.width):
+            raise ValueError(f"search mask {self.search_mask.shape} is not the image's "
+                             f"{(self.rig.height, self.rig.width)}")
+        self.table.search_mask = self.search_mask
         self.ground = GroundTracks(GroundSettings(max_sog_sigma_kn=cfg.max_sog_sigma_kn,
                                                   max_cog_sigma_deg=cfg.max_cog_sigma_deg))
         self.counters = Counters()
@@ -153,12 +162,19 @@ class Pipeline:
             self.counters.gaps += skipped
         self._last_t_ns = t_ns
         self._since_detect += 1 + skipped
-        boxes = None
+        boxes, weak = None, None
         if self._since_detect >= min(self.cfg.detect_every, max(1, int(MAX_DETECT_INTERVAL_S * self.fps))):
             self._since_detect = 0
             self.counters.detections += 1
-            boxes = self._rect_boxes([(b.x0, b.y0, b.x1, b.y1) for b in self.detector.detect(left)])
-        tracks = self.table.step(left, right, t_ns, skipped, boxes)
+            blobs = self.detector.detect(left)
+            if self.search_mask is not None:  # site masks: a ship's waterline must be in the open
+                kept = [b for b in blobs if waterline_open(self.search_mask, b.x0, b.x1, b.y1)]
+                self.counters.masked += len(blobs) - len(kept)
+                blobs = kept
+            boxes = self._rect_boxes([(b.x0, b.y0, b.x1, b.y1) for b in blobs])
+            # a blob the detector calls weak (`weak` true) waits until it persists (edge.measure.candidates)
+            weak = [bool(getattr(b, "weak", False)) for b in blobs]
+        tracks = self.table.step(left, right, t_ns, skipped, boxes, weak)
         return self._fixes(tracks, t_ns)
 
     def _rect_boxes(self, raw: list[tuple[int, int, int, int]]) -> list[np.ndarray]:
@@ -297,4 +313,13 @@ class Pipeline:
             log.warning(msg, *args)
 
 
-__all__ = ["Counters", "Pipeline", "TrackStatus"]
+def waterline_open(mask: np.ndarray, x0: float, x1: float, y1: float) -> bool:
+    """Whether a raw left-image box [x0, x1) x [..., y1) has its waterline, the centre of its
+    bottom row, where the search mask allows detection (True: may detect)."""
+    h, w = mask.shape
+    u = min(w - 1, max(0, int(round(0.5 * (x0 + x1 - 1)))))
+    v = min(h - 1, max(0, int(round(y1 - 1))))
+    return bool(mask[v, u])
+
+
+__all__ = ["Counters", "Pipeline", "TrackStatus", "waterline_open"]

@@ -35,6 +35,7 @@ from edge.chain import Chain
 from edge.config.app import AppConfig, PipelineConfig, load_config
 from edge.config.asterix import AsterixConfig, check_asterix
 from edge.config.calibration import Calibration, recording_calibration
+from edge.config.masks import build_search_mask
 from edge.encode.tracks_csv import CSV_HEADER, csv_row
 from edge.errors import ConfigError
 from edge.fix import ShipFix
@@ -68,7 +69,8 @@ class ReplaySummary:
             f"{self.skipped_pairs}, dropped (sequence gaps) {self.dropped_pairs}, "
             f"skipped (time going back) {self.unordered_pairs}",
             f"pipeline: processed {p.processed}, refused {p.bad_input}, failed {p.failed}, "
-            f"coasted gaps {p.gaps}, detection passes {p.detections}",
+            f"coasted gaps {p.gaps}, detection passes {p.detections}"
+            + (f", detections in site masks {p.masked}" if p.masked else ""),
             f"fixes {p.fixes} from {self.tracks} tracks; NMEA lines {self.nmea_lines}, "
             f"CSV rows {self.csv_rows}",
         ] + ([f"ASTERIX: {self.asterix_blocks} data blocks, {self.asterix_records} records"]
@@ -83,10 +85,13 @@ def open_recording(root: str | Path) -> ReplaySource:
         raise ConfigError(exc.path, "format", f"a mast-stereo recording ({exc.problem})") from None
 
 
-def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | None) -> Pipeline:
-    """The pipeline for a recording: its calibration/site/fps, overridden by `config` where set."""
+def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | None,
+                   config_file: str | Path | None = None) -> Pipeline:
+    """The pipeline for a recording: its calibration/site/fps, overridden by `config` where set
+    (its site masks too; `config_file` names the file in their errors)."""
     cal = recording_calibration(root, source.meta)
     pipeline_cfg = PipelineConfig()
+    mask = None
     if config is not None:
         chosen = config.calibration or cal
         cal = Calibration(chosen.rig, config.effective_site or cal.site, chosen.sigma)
@@ -97,7 +102,9 @@ def build_pipeline(root: str | Path, source: ReplaySource, config: AppConfig | N
     fps = source.meta.get("fps")
     if isinstance(fps, bool) or not isinstance(fps, int | float) or not fps > 0:
         raise ConfigError(Path(root) / "meta.yaml", "fps", "a positive frame rate", fps)
-    return Pipeline(cal, pipeline_cfg, fps=float(fps))
+    if config is not None:
+        mask = build_search_mask(config.masks, cal.rig, cal.site, config_file)
+    return Pipeline(cal, pipeline_cfg, fps=float(fps), search_mask=mask)
 
 
 def recorded_ais(root: str | Path) -> RecordedAis | None:
@@ -109,10 +116,12 @@ def recorded_ais(root: str | Path) -> RecordedAis | None:
     return None if lines is None else RecordedAis(lines)
 
 
-def build_chain(root: str | Path, source: ReplaySource, config: AppConfig | None) -> Chain:
-    """The chain for a recording: its pipeline; AIS when it has an ais.csv (config.ais, else the
-    defaults); alerts when the configuration enables them."""
-    pipeline = build_pipeline(root, source, config)
+def build_chain(root: str | Path, source: ReplaySource, config: AppConfig | None,
+                config_file: str | Path | None = None) -> Chain:
+    """The chain for a recording: its pipeline (with the configuration's site masks; `config_file`
+    names the file in their errors); AIS when it has an ais.csv (config.ais, else the defaults);
+    alerts when the configuration enables them."""
+    pipeline = build_pipeline(root, source, config, config_file)
     ais = recorded_ais(root)
     chain = Chain.from_config(config, pipeline, ais) if config is not None else \
         Chain(pipeline, Chain.build_ais(None, pipeline, ais))
@@ -143,7 +152,7 @@ def replay(root: str | Path, *, config_path: str | Path | None = None, nmea: Tex
     if asterix_send and config is not None:
         check_asterix(replace(config.outputs.asterix, enabled=True), config_path)
     source = open_recording(root)
-    chain = build_chain(root, source, config)
+    chain = build_chain(root, source, config, config_path)
     summary = ReplaySummary(pairs_in_recording=len(source), pipeline=chain.pipeline.counters)
     if chain.ais is not None:
         summary.ais = chain.ais.stage

@@ -55,6 +55,7 @@ from edge.appliance.state import Persistence
 from edge.chain import Chain
 from edge.config.app import AppConfig, load_config
 from edge.config.asterix import check_asterix
+from edge.config.masks import build_search_mask
 from edge.config.trust import check_config_files
 from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
@@ -82,7 +83,8 @@ def _plan(config: AppConfig, config_file: str | Path | None) -> SourcePlan:
     plan = plan_source(config, config_file)
     if plan.calibration.site is None:
         raise ConfigError(config_file, "site", "a site (lat_deg, lon_deg, height_m, heading_deg)")
-    return plan
+    mask = build_search_mask(config.masks, plan.calibration.rig, plan.calibration.site, config_file)
+    return plan if mask is None else dataclasses.replace(plan, search_mask=mask)
 
 
 def _health(config: AppConfig, plan: SourcePlan, extra_nmea: bool, recording: bool = False) -> HealthMonitor:
@@ -156,7 +158,8 @@ class Appliance:
     def _pipeline(config: AppConfig, plan: SourcePlan) -> Pipeline:
         # live pairs are stamped on CLOCK_MONOTONIC; a recording's clock is anchored at its first pair
         utc_offset_ns = time.time_ns() - time.monotonic_ns() if plan.monotonic_stamps else 0
-        return Pipeline(plan.calibration, config.pipeline, fps=plan.fps, utc_offset_ns=utc_offset_ns)
+        return Pipeline(plan.calibration, config.pipeline, fps=plan.fps, utc_offset_ns=utc_offset_ns,
+                        search_mask=plan.search_mask)
 
     @staticmethod
     def _outputs(config: AppConfig, plan: SourcePlan, health: HealthMonitor, alerts: AlertManager | None,
@@ -392,8 +395,8 @@ class Appliance:
             logging.getLogger().setLevel(config.logging.level)
             if cameras_changed:
                 self._stop_capture()
-            if cameras_changed or (old.calibration, old.site, old.pipeline) != \
-                    (config.calibration, config.site, config.pipeline):
+            if cameras_changed or (old.calibration, old.site, old.pipeline, old.masks) != \
+                    (config.calibration, config.site, config.pipeline, config.masks):
                 self.chain.pipeline, self.steps, self.last_fixes = self._pipeline(config, plan), 0, []
             if config.ais != old.ais:
                 self.chain.close()

@@ -1,7 +1,8 @@
 """`mast-stereo selftest`: what a maintenance technician runs on the mast, in 30 s or less.
 
-Each check says PASS, FAIL (with a hint of what to do) or SKIP (not applicable here, e.g. the
-serial ports while the running daemon holds them). The exit status is the number of failures,
+Each check says PASS, FAIL (with a hint of what to do), WARN (it works, but a person should
+look: not a failure) or SKIP (not applicable here, e.g. the serial ports while the running
+daemon holds them). The exit status is the number of failures,
 so a script or a PLC can act on it. When the daemon is running (its Modbus port answers), the
 checks that would fight it for a device read its health block instead of opening the device.
 
@@ -10,7 +11,8 @@ deliver pairs (at the configured rate and skew for real cameras); a known-answer
 core on a rendered pair (range within 1 % of truth); each serial port opens; the Modbus port
 binds (or the daemon answers on it); the LEDs cycle; free disk for recordings; the system
 clock is synchronised (NMEA carries UTC); with an `ais:` block, the running daemon's AIS
-calibration check (disparity and bearing offsets, their sigmas, ships behind them: Modbus 40-45).
+calibration check (disparity and bearing offsets, their sigmas, ships behind them: Modbus 40-45);
+with a `masks:` block, the site masks build for the rig, WARN if they hide the whole sea.
 """
 
 from __future__ import annotations
@@ -32,12 +34,14 @@ from edge.appliance.health import Status
 from edge.appliance.panel import build_leds
 from edge.appliance.sources import SourcePlan, plan_source
 from edge.config.app import AppConfig, V4l2Cameras, config_from_dict, load_config
+from edge.config.masks import build_search_mask, sea_grid
 from edge.config.schema import load_yaml
+from edge.core.masks import open_sea_share
 from edge.core.match import match_point
 from edge.errors import ConfigError
 from edge.sim import synth
 
-PASS, FAIL, SKIP = "PASS", "FAIL", "SKIP"
+PASS, FAIL, SKIP, WARN = "PASS", "FAIL", "SKIP", "WARN"  # WARN: works, but look (not a failure)
 CAMERA_WAIT_S = 10.0  # longest wait for pairs from cameras the daemon is not using
 CAMERA_PAIRS = 5
 KNOWN_RANGE_DISPARITY_PX = 5.0  # the known-answer pair: a ship at the range of 5 px disparity
@@ -121,7 +125,7 @@ class Selftest:
         checks.append(self.check_daemon())
         steps: list[Callable[[], Check | list[Check]]] = [
             self.check_cameras, self.check_core, self.check_serial_ports, self.check_modbus,
-            self.check_leds, self.check_disk, self.check_clock, self.check_ais]
+            self.check_leds, self.check_disk, self.check_clock, self.check_ais, self.check_masks]
         for step in steps:
             got = step()
             checks.extend(got if isinstance(got, list) else [got])
@@ -325,6 +329,29 @@ class Selftest:
                          "a camera moved or the heading is off: re-check the mount, recalibrate")
         return Check("ais calibration check", PASS, text)
 
+    def check_masks(self) -> Check:
+        """The site masks (`masks:`) build for this rig; WARN when they leave no sea to search."""
+        assert self.config is not None
+        masks = self.config.masks
+        if masks.empty:
+            return Check("site masks", SKIP, "none configured")
+        if self.plan is None or self.plan.calibration.site is None:
+            return Check("site masks", SKIP, "no calibration with a site")
+        rig, site = self.plan.calibration.rig, self.plan.calibration.site
+        sea = sea_grid(rig, site)
+        try:
+            mask = build_search_mask(masks, rig, site, self.config_path, sea)
+        except ConfigError as exc:
+            return Check("site masks", FAIL, str(exc), "fix the named vertex; `mast-stereo masks` draws them")
+        assert mask is not None
+        share = open_sea_share(mask, sea)
+        detail = (f"{len(masks.image)} image, {len(masks.geo)} geo polygons; {100 * share:.1f} % of the sea "
+                  "below the horizon open to detection")
+        if share == 0.0:
+            return Check("site masks", WARN, "they hide the whole sea below the horizon: no ship can be "
+                         f"detected ({detail})", "check them over a frame: `mast-stereo masks --config ...`")
+        return Check("site masks", PASS, detail)
+
     def check_clock(self) -> Check:
         assert self.config is not None
         if self.clock.synchronised():
@@ -358,11 +385,13 @@ def report(checks: list[Check]) -> str:
     lines = [f"{'check':<{width}}  result  detail"]
     for c in checks:
         lines.append(f"{c.name:<{width}}  {c.result:<6}  {c.detail}")
-        if c.result == FAIL and c.hint:
+        if c.result in (FAIL, WARN) and c.hint:
             lines.append(f"{'':<{width}}          hint: {c.hint}")
     failed = sum(c.result == FAIL for c in checks)
-    lines.append(f"{failed} of {len(checks)} checks failed" if failed
-                 else f"all {len(checks)} checks passed or skipped")
+    warned = sum(c.result == WARN for c in checks)
+    lines.append((f"{failed} of {len(checks)} checks failed" if failed
+                  else f"all {len(checks)} checks passed or skipped")
+                 + (f", {warned} with a warning" if warned else ""))
     return "\n".join(lines)
 
 

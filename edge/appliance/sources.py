@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+
+import numpy as np
 
 from drivers.camera.base import FramePairSource
 from drivers.camera.replay import RecordingFormatError, ReplaySource
@@ -43,6 +45,7 @@ class SourcePlan:
     description: str
     monotonic_stamps: bool  # pairs stamped on CLOCK_MONOTONIC (live); else a recording's own clock
     lossless: bool = False  # not paced: the capture thread waits for the processing, never drops
+    search_mask: np.ndarray | None = field(default=None, compare=False)  # site masks (daemon._plan)
 
 
 def read_timeout_s(rate_hz: float) -> float:

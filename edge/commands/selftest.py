@@ -1,8 +1,8 @@
 """`mast-stereo selftest [--config FILE] [--json]`: the technician's checks (edge.appliance.selftest).
 
-Prints a PASS/FAIL/SKIP table with a hint under each failure (or JSON with --json); the exit
-status is the number of failed checks. A broken configuration is a failed check here, not
-exit 78: the technician wants the whole table.
+Prints a PASS/FAIL/WARN/SKIP table with a hint under each failure or warning (or JSON with
+--json); the exit status is the number of failed checks (a WARN is not one). A broken
+configuration is a failed check here, not exit 78: the technician wants the whole table.
 """
 
 from __future__ import annotations

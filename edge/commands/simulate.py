@@ -14,7 +14,7 @@ import time
 
 from edge.errors import EX_CONFIG
 from edge.sim.render_recording import ProgressBar, default_jobs, write_recording
-from edge.sim.scenario import SCENARIO_DIR, load_scenario
+from edge.sim.scenario import load_scenario
 from edge.sim.simulator import Simulation
 
 EX_CANTCREAT = 73  # sysexits: cannot create the output
@@ -22,7 +22,7 @@ EX_CANTCREAT = 73  # sysexits: cannot create the output
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "scenario", metavar="SCENARIO", help=f"scenario name in {SCENARIO_DIR} or a YAML path"
+        "scenario", metavar="SCENARIO", help="scenario name in config/scenarios or a YAML path"
     )
     parser.add_argument("--out", required=True, metavar="RECORDING", help="recording directory to create")
     parser.add_argument("--seed", type=int, default=0, help="noise/jitter/glint seed (default 0)")

@@ -29,6 +29,7 @@ from edge.config.ais import AisConfig
 from edge.config.alerts import AlertsConfig
 from edge.config.asterix import AsterixConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
+from edge.config.masks import MasksConfig, check_image_polygons
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
 from edge.core.site import Site
@@ -126,6 +127,10 @@ class ExperimentalConfig:
     operators. The defaults are the product; turning the cross-checks off leaves the fixes' sigma
     smaller than their real error, and another filter or cost has not been validated like them."""
 
+    detector: Literal["rowband", "seaclutter"] = setting(
+        "rowband", doc="rowband: contrast against each row band's spread (edge.measure.detect); seaclutter: "
+        "local sea-clutter CFAR candidates on an image pyramid scored by a fitted verifier "
+        "(edge.measure.seadetect, docs/detection-real.md)")
     cost: Literal["zssd", "ssd"] = setting("zssd", doc="zero-mean SSD (robust to gain/offset) or plain SSD")
     filter: Literal["kalman", "butterworth"] = setting("kalman", doc="disparity filter (Butterworth eq. 6.1)")
     butterworth_cutoff_hz: float = setting(0.5, positive=True, doc="cut-off of the Butterworth filter")
@@ -303,6 +308,8 @@ class AppConfig:
     logging: LoggingConfig = setting(default_factory=LoggingConfig)
     alerts: AlertsConfig = setting(default_factory=AlertsConfig)  # edge/config/alerts.py
     ais: AisConfig | None = setting(None, doc="AIS input and association (docs/ais.md); null: off")
+    masks: MasksConfig = setting(default_factory=MasksConfig,
+                                 doc="exclusion zones: no detection, no birth (docs/site-masks.md)")
 
     @property
     def effective_site(self) -> Site | None:
@@ -328,6 +335,8 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
         cfg = replace(cfg, cameras=replace(cams, path=str(resolve_path(file, cams.path))))
     elif cams.scenario.endswith((".yaml", ".yml")):
         cfg = replace(cfg, cameras=replace(cams, scenario=str(resolve_path(file, cams.scenario))))
+    if cfg.calibration is not None:  # else when the source is planned (the scenario's/recording's size)
+        check_image_polygons(cfg.masks, cfg.calibration.rig.width, cfg.calibration.rig.height, file)
     ports = [p.url for p in cfg.outputs.nmea]
     if cfg.outputs.modbus.rtu.enabled:
         ports.append(cfg.outputs.modbus.rtu.url)

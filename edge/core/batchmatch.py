@@ -35,7 +35,6 @@ from numpy.lib.stride_tricks import as_strided
 from edge.core.batchsubpix import gauss6_q8_batch, parabola3_q8
 from edge.core.costs import COSTS
 from edge.core.match import (
-    SUBPIXEL_METHODS,
     CostArithmetic,
     Match,
     check_images,
@@ -44,6 +43,7 @@ from edge.core.match import (
     match_point,
     round_half_away,
     search_range,
+    subpixel_methods,
 )
 from edge.core.refpoint import (
     FollowResult,
@@ -236,7 +236,7 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
                            cost=cost, subpixel=subpixel, noise_dn=noise_dn, min_ratio=min_ratio,
                            max_sigma_px=max_sigma_px)
 
-    if cost not in COSTS or subpixel not in SUBPIXEL_METHODS or window < 3 or window % 2 == 0:
+    if cost not in COSTS or subpixel not in subpixel_methods() or window < 3 or window % 2 == 0:
         return [reference(i) for i in range(n)]        # raises ValueError as match_point does
     out: list[Match | None] = [None] * n
     h = window // 2

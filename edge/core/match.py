@@ -20,9 +20,9 @@ searches many points at once reuses it per point):
 - "cancel": the four Shimizu-Okutomi passes run both ways (left window against the right image,
   and back) and averaged: the one-way version's edge-of-window bias flips sign in the reverse
   direction, so the average removes it. "cancel6": plus the mirrored passes.
-- "refit" (opt-in): the "cancel" estimate, then `refit.refit_q8` resamples the right band there
-  and refits eq. 5.2 on -log NCC around zero, where pixel locking vanishes; where it cannot run,
-  or the predicted sigma exceeds REFIT_MAX_SIGMA_PX (noise-dominated windows), "cancel6-gauss".
+- research methods registered by the lab (`register_refiner`): `lab.subpix` adds "refit" (the
+  "cancel" estimate, then a resampled refit around zero where pixel locking vanishes). They are not
+  in the appliance; asking for one the lab has not registered is a ValueError like any unknown name.
 - "parabola" (eq. 5.2, the thesis) and "none" (whole pixel): the thesis's stages.
 What each costs and gains is measured by tools/bench-core (docs/decisions.md has the history).
 
@@ -45,6 +45,7 @@ with mean-subtracted windows and float fits). `match_point_float` is impl="float
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
@@ -53,13 +54,10 @@ import numpy as np
 from edge.core import subpixel as sp
 from edge.core.costs import COSTS, cost_curve, cost_curve_float, cost_curve_reference, gradient_energy
 from edge.core.fixedpoint import SUBPIX_BITS, from_q
-from edge.core.refit import refit_float, refit_q8
 
-SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "refit", "cancel-oneway", "parabola", "none")
+SUBPIXEL_METHODS = ("cancel", "cancel6", "cancel6-gauss", "cancel-oneway", "parabola", "none")
 IMPLS = ("int", "int-ref", "float")
 DEFAULT_SEARCH_RADIUS = 4
-REFIT_MAX_SIGMA_PX = 0.08          # subpixel="refit" refits only up to this predicted sigma (module doc)
-REFIT_SMOOTH_MAX_SIGMA_PX = 0.01   # ... and smooths both views by [1 6 1]/8 up to this one
 NO_BRACKET = "cost curve does not bracket the minimum (den <= 0)"  # refine's parabola failure
 
 
@@ -135,24 +133,31 @@ class CostArithmetic:
         return (sp.fit_curve_float if self.is_float else sp.fit_curve_q)(costs, d_first)
 
 
+Refiner = Callable[..., tuple[float | int | None, str]]
+_RESEARCH: dict[str, Refiner] = {}  # research methods the lab registers; none on the appliance
+
+
+def register_refiner(name: str, refiner: Refiner) -> None:
+    """Add a research sub-pixel method: `refiner(arith, a_band, b_band, xa, d_lo, costs, k0, sigma_px,
+    noise_dn)` returns what `refine` returns, and may call `refine` for a product method."""
+    _RESEARCH[name] = refiner
+
+
+def subpixel_methods() -> tuple[str, ...]:
+    """The product's sub-pixel methods and the research ones registered so far."""
+    return SUBPIXEL_METHODS + tuple(_RESEARCH)
+
+
 def refine(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int,
            costs: np.ndarray, k0: int, method: str, sigma_px: float = math.inf,
            noise_dn: float = 1.0) -> tuple[float | int | None, str]:
     """Sub-pixel disparity around the integer minimum costs[k0] (d0 = d_lo + k0); sigma_px (the
-    predicted sigma) and noise_dn (the read noise) set what "refit" does (module doc).
+    predicted sigma) and noise_dn (the read noise) are for the research methods (module doc).
 
     Returns (Q8 int or float px, reason). Cancellation needs d0 - 2 .. d0 + 2 to be searchable."""
     d0 = d_lo + k0
-    if method == "refit":
-        if sigma_px <= REFIT_MAX_SIGMA_PX:
-            first, _ = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel")
-            step = refit_float if arith.is_float else refit_q8
-            noise = noise_dn if sigma_px <= REFIT_SMOOTH_MAX_SIGMA_PX else None
-            # here and below: values are Q8 ints on the integer path, floats on the float one (is_float)
-            value = None if first is None else step(a_band, b_band, xa, first, noise)  # type: ignore[arg-type]
-            if value is not None:
-                return value, ""
-        method = "cancel6-gauss"            # noise-dominated, near the border or no minimum: six passes
+    if method in _RESEARCH:
+        return _RESEARCH[method](arith, a_band, b_band, xa, d_lo, costs, k0, sigma_px, noise_dn)
     if method == "none":
         return (float(d0) if arith.is_float else d0 << SUBPIX_BITS), ""
     if method == "parabola":
@@ -245,8 +250,8 @@ def match_point(left: np.ndarray, right: np.ndarray, x: float, y: float, *, wind
     noise_dn: camera read noise (DN) for sigma_px = noise * sqrt(2 / sum Ix^2) (note §1.4).
     predicted_disparity + search_radius (default 4) narrow the search around a prediction
     (intersected with [min_disparity, max_disparity])."""
-    if cost not in COSTS or subpixel not in SUBPIXEL_METHODS or impl not in IMPLS:
-        raise ValueError(f"cost must be one of {COSTS}, subpixel one of {SUBPIXEL_METHODS}, "
+    if cost not in COSTS or subpixel not in subpixel_methods() or impl not in IMPLS:
+        raise ValueError(f"cost must be one of {COSTS}, subpixel one of {subpixel_methods()}, "
                          f"impl one of {IMPLS}")
     if window < 3 or window % 2 == 0:
         raise ValueError(f"window must be odd and >= 3, got {window}")
@@ -301,7 +306,7 @@ def finish_match(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, 
     yi - h .. yi + h), `width` the images' width; k0 (the first minimum) and ratio
     (`second_best_ratio`) when the caller has them (edge.core.batchmatch computes them for many
     points at once), `refined` when it has `refine`'s result (edge.core.batchsubpix); noise_dn as
-    in `match_point` (subpixel="refit" uses it)."""
+    in `match_point` (research methods use it)."""
     k0 = int(np.argmin(costs)) if k0 is None else k0
     d0 = lo + k0
     best = float(costs[k0]) * (a_band.shape[0] ** 2 if arith.is_float and arith.cost == "zssd" else 1)

@@ -14,9 +14,13 @@ import math
 import cv2
 import numpy as np
 
+from edge.core.rectify import Rectifier
+
 UPPER_SHARE = 0.6  # the reference point is searched in this top share of the ship's box
 SHIP_WINDOW_MARGIN_PX = 6  # a small ship's window spans its box plus this (both outlines inside)
 BACKGROUND_SHARE = 0.25  # ... if the background around it has at most this share of the ship's texture
+GLINT_SPARE = 4  # extra candidates ranked, so those with glints can go last
+CLIPPED_DN = 250  # a window holding a pixel this bright holds a clipped sun glint
 
 
 def ship_window(patch: np.ndarray, origin: tuple[int, int], box: tuple[float, float, float, float],
@@ -84,3 +88,30 @@ def reference_points(patch: np.ndarray, box: tuple[int, int, int, int], origin: 
         h = window // 2
         sub[max(0, iy - h):iy + h + 1, max(0, ix - h):ix + h + 1] = -1.0
     return out
+
+
+def ship_points(rect: Rectifier, left: np.ndarray, box: np.ndarray, window: int, count: int) -> list:
+    """The best-textured points in the upper part of a (rectified) ship box, best first, for
+    `window` (the configured one or a track's own, `ship_window`), from the left image.
+
+    Two kinds of window are avoided: (1) one across the bow or stern outline holds the sea
+    behind the ship, at another range, and its disparity is a mix of the two (a ship wider
+    than a window keeps its centres half a window inside its ends); (2) one holding clipped
+    pixels: a sun glint, the brightest texture there is, seen by one camera only and gone
+    within a few pairs (such windows come after all others, so a ship that is all glare
+    still gets a point)."""
+    h = window // 2
+    x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
+    x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
+    ox, oy = x0 - h - 1, y0 - h - 1
+    patch = rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
+    cx0, cx1 = (x0 + h, x1 - h) if x1 - x0 > 2 * h + 1 else (x0, x1)
+    clipped = patch >= CLIPPED_DN
+    if not clipped.any():
+        return reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count)
+    points = reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count + GLINT_SPARE)
+    glare = [bool(clipped[int(v) - oy - h:int(v) - oy + h + 1, int(u) - ox - h:int(u) - ox + h + 1].any())
+             for u, v in points]
+    ranked = [p for p, g in zip(points, glare, strict=True) if not g] + \
+        [p for p, g in zip(points, glare, strict=True) if g]
+    return ranked[:count]

@@ -1,5 +1,5 @@
 """Ship-box geometry for the track table's association: how much boxes coincide, whether a box holds
-a point.
+a point, whether its waterline lies in a site mask.
 
 Boxes are rectified left-image [x0, y0, x1, y1] in pixels (columns x0 <= u < x1, rows y0 <= v < y1).
 All tracks against all detections in one array operation: a Python loop over the pairs cost about
@@ -11,6 +11,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+
+from edge.core.rectify import Rectifier
 
 
 def overlaps(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -31,6 +33,17 @@ def inside(boxes: np.ndarray, u: np.ndarray | Sequence[float], v: np.ndarray | S
     """Whether each point (u[i], v[i]) lies in each box of `boxes` (m, 4): an (n, m) array."""
     u, v = np.asarray(u, float)[:, None], np.asarray(v, float)[:, None]
     return (boxes[:, 0] <= u) & (u < boxes[:, 2]) & (boxes[:, 1] <= v) & (v < boxes[:, 3])
+
+
+def waterline_masked(mask: np.ndarray, rect: Rectifier, box: np.ndarray) -> bool:
+    """Whether a rectified box's waterline (its bottom row's centre) lies in a site mask (`mask`: the
+    raw left image, True where detection may run; edge.core.masks)."""
+    raw = rect.rect_to_raw(np.array([0.5 * (box[0] + box[2]), box[3] - 1.0]), 0)
+    if not np.isfinite(raw).all():
+        return True
+    h, w = mask.shape
+    u, v = min(w - 1, max(0, int(round(raw[0])))), min(h - 1, max(0, int(round(raw[1]))))
+    return not bool(mask[v, u])
 
 
 def contains(box: np.ndarray, u: float, v: float) -> bool:

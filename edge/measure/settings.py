@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-SUBPIXELS = ("cancel6-gauss", "refit", "cancel", "parabola", "none")
+SUBPIXELS = ("cancel6-gauss", "cancel", "parabola", "none")  # the lab adds research ones (lab.subpix)
 FILTERS = ("kalman", "butterworth", "none")
 
 

@@ -47,11 +47,13 @@ from edge.core.match import Match
 from edge.core.rectify import Rectifier
 from edge.core.triangulation import triangulate_normalised
 from edge.fix import TrackStatus
-from edge.measure.anchor import reference_points, ship_window, spanning_width
+from edge.measure.anchor import ship_points, ship_window, spanning_width
 from edge.measure.batch import answer_all, step_points, stereo_request
-from edge.measure.boxes import contains, inside, overlaps
+from edge.measure.boxes import contains, inside, overlaps, waterline_masked
+from edge.measure.candidates import CandidatePool
 from edge.measure.detect import sea_range_at
 from edge.measure.filter_designs import Designs
+from edge.measure.oneship import Held, duplicates
 from edge.measure.point import TrackPoint
 from edge.measure.settings import PointSettings
 
@@ -62,8 +64,6 @@ SLOPE_ROWS = 4  # rows above and below the point for that test
 ROW_SIGMA_PX = 0.5  # row uncertainty (height above the sea) when the calibration gives no standard errors
 SEARCH_CANDIDATES = 6  # points offered to a track that lost its point on the ship
 WINDOW_VOTES = 3  # detection passes in a row that must call for another window before it changes
-GLINT_SPARE = 4  # extra candidates ranked, so those with glints can go last
-CLIPPED_DN = 250  # a window holding a pixel this bright holds a clipped sun glint
 CONFIDENCE_S = 10.0  # a track's confidence is its measured share of the pairs of this long
 
 
@@ -79,6 +79,8 @@ class TableSettings:
     max_ship_length_m: float = 400.0  # the point may be this much farther than the waterline's nearest
     min_height_m: float = 1.0  # a track's point must stand this far above the sea to become T
     min_updates: int = 5  # ... and its filter have taken this many measurements since it (re)started
+    candidate_hits: int = 3  # a weak detection is born once seen in this many of the last ...
+    candidate_passes: int = 5  # ... detection passes (edge.measure.candidates)
 
 
 class Track:
@@ -127,6 +129,8 @@ class TrackTable:
         self.s = settings
         self.designs = Designs(point_settings)
         self.pointing: Pointing | None = None  # the calibration's standard errors (Pipeline sets it)
+        self.search_mask: np.ndarray | None = None  # raw left image, True: may detect (site masks; Pipeline)
+        self.candidates = CandidatePool(settings.candidate_hits, settings.candidate_passes, MIN_OVERLAP)
         self.tracks: list[Track] = []
         self.next_id = 1
         self.births = 0
@@ -134,9 +138,10 @@ class TrackTable:
 
     # ------------------------------------------------------------ per pair
     def step(self, left: np.ndarray, right: np.ndarray, t_ns: int, skipped: int = 0,
-             boxes: list[np.ndarray] | None = None) -> list[Track]:
+             boxes: list[np.ndarray] | None = None, weak: list[bool] | None = None) -> list[Track]:
         """Advance every track into this pair; associate and give birth when `boxes` (rectified
-        [x0, y0, x1, y1] of this pair's detections) are given. Returns the live tracks."""
+        [x0, y0, x1, y1] of this pair's detections) are given (`weak` ones: the candidate pool first).
+        Returns the live tracks."""
         if boxes:
             self._box_steps(boxes, skipped)
         # every track's follow and match of this pair batched (edge.measure.batch; = point.step per track)
@@ -161,7 +166,8 @@ class TrackTable:
                 elif track.status is TrackStatus.TRACKING:
                     track.status, track.lost_since_ns = TrackStatus.LOST, t_ns
         if boxes is not None:
-            self._associate(left, right, t_ns, boxes)
+            self._associate(left, right, t_ns, boxes, weak or [False] * len(boxes))
+            self._drop_duplicates()  # one track per ship (edge.measure.oneship)
         for track in self.tracks:
             if track.alive:
                 self._lifecycle(track, t_ns)
@@ -188,7 +194,8 @@ class TrackTable:
             share = min(max((p.u - old[0]) / max(old[2] - old[0], 1.0), 0.0), 1.0)
             p.box_step_px = float((new[0] - old[0]) * (1.0 - share) + (new[2] - old[2]) * share) / pairs
 
-    def _associate(self, left: np.ndarray, right: np.ndarray, t_ns: int, boxes: list[np.ndarray]) -> None:
+    def _associate(self, left: np.ndarray, right: np.ndarray, t_ns: int, boxes: list[np.ndarray],
+                   weak: list[bool]) -> None:
         tracks = self.tracks
         confirmed = [False] * len(tracks)
         taken = [False] * len(boxes)
@@ -214,13 +221,27 @@ class TrackTable:
                 confirmed[i] = True
                 track.last_confirmed_ns = t_ns
             track.confirmations.append(confirmed[i])
+        waiting = []  # weak boxes for the candidate pool
         for j, db in enumerate(boxes):
             if taken[j] or tracks and (
                     bool((overlaps(np.array([t.box for t in tracks]), db[None]) > 0).any())
                     or any(contains(db, t.point.u, t.point.v) for t in tracks)):
                 continue
+            if weak[j]:
+                waiting.append(db)
+            elif len(self.tracks) < self.s.max_tracks:
+                self._birth(left, right, t_ns, db)
+        for db in self.candidates.step(waiting):  # weak ones that persisted (every pass ages the pool)
             if len(self.tracks) < self.s.max_tracks:
                 self._birth(left, right, t_ns, db)
+
+    def _drop_duplicates(self) -> None:
+        settled = [t for t in self.tracks if t.point.disparity is not None and t.point.disparity > 0.0
+                   and t.point.updates >= self.s.min_updates and t.point.sigma_px <= self.ps.max_sigma_px]
+        held = [Held(t.box, t.point.u, t.point.v, float(t.point.disparity or 0.0), t.point.sigma_px,
+                     t.point.s.window, (sum(t.confirmations), -t.born_ns, -t.id)) for t in settled]
+        for i in sorted(duplicates(held, self.rect.f_px, self.rect.f_px * self.rect.rig.baseline_m)):
+            self._drop(settled[i])
 
     def _confirm_start(self, track: Track, box: np.ndarray, left: np.ndarray) -> bool:
         """The first half of a track's confirmation by its box (`_associate` runs the halves for all
@@ -277,6 +298,8 @@ class TrackTable:
         return ship_window(patch, (bx0, by0), tuple(box), m)
 
     def _birth(self, left: np.ndarray, right: np.ndarray, t_ns: int, box: np.ndarray) -> None:
+        if self.search_mask is not None and waterline_masked(self.search_mask, self.rect, box):
+            return  # no track is born in a site mask
         window = self._ship_window(left, box)
         u, v = self._reference(left, box, window)
         point = TrackPoint(u, v, self.ps, self.designs, window)
@@ -298,31 +321,8 @@ class TrackTable:
 
     def _candidates(self, left: np.ndarray, box: np.ndarray, count: int = SEARCH_CANDIDATES,
                     window: int | None = None) -> list:
-        """The best-textured points in the upper part of a (rectified) ship box, best first, for
-        `window` (default the configured one; a track's own, edge.measure.anchor.ship_window).
-
-        Two kinds of window are avoided: (1) one across the bow or stern outline holds the sea
-        behind the ship, at another range, and its disparity is a mix of the two (a ship wider
-        than a window keeps its centres half a window inside its ends); (2) one holding clipped
-        pixels: a sun glint, the brightest texture there is, seen by one camera only and gone
-        within a few pairs (such windows come after all others, so a ship that is all glare
-        still gets a point)."""
-        window = window or self.ps.window
-        h = window // 2
-        x0, y0 = int(math.floor(box[0])), int(math.floor(box[1]))
-        x1, y1 = max(x0 + 1, int(math.ceil(box[2]))), max(y0 + 1, int(math.ceil(box[3])))
-        ox, oy = x0 - h - 1, y0 - h - 1
-        patch = self.rect.patch(left, 0, ox, oy, x1 - x0 + 2 * h + 2, y1 - y0 + 2 * h + 2)
-        cx0, cx1 = (x0 + h, x1 - h) if x1 - x0 > 2 * h + 1 else (x0, x1)
-        clipped = patch >= CLIPPED_DN
-        if not clipped.any():
-            return reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count)
-        points = reference_points(patch, (cx0, y0, cx1, y1), (ox, oy), window, count + GLINT_SPARE)
-        glare = [bool(clipped[int(v) - oy - h:int(v) - oy + h + 1, int(u) - ox - h:int(u) - ox + h + 1].any())
-                 for u, v in points]
-        ranked = [p for p, g in zip(points, glare, strict=True) if not g] + \
-            [p for p, g in zip(points, glare, strict=True) if g]
-        return ranked[:count]
+        """`edge.measure.anchor.ship_points` for `window` (default the configured one)."""
+        return ship_points(self.rect, left, box, window or self.ps.window, count)
 
     def _on_the_sea(self, disparity_px: float, box: np.ndarray) -> bool:
         """Is the measured disparity possible for a ship whose waterline is the box's bottom row?

@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+import lab.subpix  # noqa: F401  (registers the research sub-pixel methods, "refit")
 from edge.core.butterworth import ButterworthFloat, ButterworthQ
 from edge.core.kalman import DisparityKalman, DisparityKalmanFloat, design_kalman
 from edge.core.match import match_point

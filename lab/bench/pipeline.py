@@ -44,6 +44,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import lab.subpix  # noqa: F401  (registers the research sub-pixel methods, "refit")
 from edge.measure.settings import SUBPIXELS, PointSettings
 
 ROOT = Path(__file__).resolve().parents[2]  # the checkout: config/ and out/
@@ -246,7 +247,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cache", type=Path, default=ROOT / "out" / "bench")
     parser.add_argument("--stages", action="store_true",
                         help="also show where a pair's time goes (mean CPU ms per pair by stage, extra runs)")
-    parser.add_argument("--subpixel", choices=SUBPIXELS, default=PointSettings.subpixel,
+    parser.add_argument("--subpixel", choices=SUBPIXELS + ("refit",), default=PointSettings.subpixel,
                         help="the pipeline's sub-pixel method (default %(default)s)")
     parser.add_argument("--child", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--stages-child", type=Path, help=argparse.SUPPRESS)

@@ -23,7 +23,7 @@ writes an integer version:
   mirror images, so equal weights there are already the inverse-variance ones).
   None of them beat the default on every condition (the tapers and [1 2 1] trade
   noise for bias: lower error at 0-1 DN, higher at 4 DN and in fog);
-- shift-and-refit (edge/core/refit.py, match_point subpixel="refit") and its variants: which
+- shift-and-refit (lab/subpix/refit.py, match_point subpixel="refit") and its variants: which
   first stage, and the [1 6 1] smoothing never / always / by predicted sigma without the
   check that the aligned views match to the noise (the product's adds that check).
 """
@@ -36,9 +36,10 @@ from typing import cast
 
 import numpy as np
 
+import lab.subpix  # noqa: F401  (registers the research sub-pixel methods, "refit")
 from edge.core.match import Match, match_point
-from edge.core.refit import refit_float
 from edge.sim.synth import Condition, sweep_many
+from lab.subpix.refit import refit_float
 
 TUNE_SEED0 = 5000
 EVAL_SEED0 = 1000                        # bench-core's evaluation seeds (only with --study-seeds)

@@ -42,6 +42,7 @@ import lab.evaluate.alerts as evaluate_alerts
 import lab.evaluate.metrics as em
 import lab.evaluate.motion as evaluate_motion
 import lab.evaluate.sigma as es
+import lab.subpix  # noqa: F401  (registers the research sub-pixel methods, "refit")
 from edge.chain import Chain
 from edge.config.app import ExperimentalConfig, PipelineConfig
 from edge.config.calibration import recording_calibration
@@ -290,7 +291,8 @@ def main(argv: list[str] | None = None) -> int:
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--stages", action="store_true", default=None, help="compare the thesis's stages")
     group.add_argument("--no-stages", dest="stages", action="store_false")
-    parser.add_argument("--subpixel", choices=SUBPIXELS, help="the product pipeline's sub-pixel method "
+    parser.add_argument("--subpixel", choices=SUBPIXELS + ("refit",),
+                        help="the product pipeline's sub-pixel method "
                         f"(default {PointSettings.subpixel})")
     parser.add_argument("--no-alias-check", dest="alias_check", action="store_false",
                         help="the product pipeline with pipeline.experimental.alias_check off (before/after)")

@@ -14,7 +14,7 @@ import yaml
 from helpers import free_port, run_cli
 
 from drivers.clock import VirtualClock
-from edge.appliance.selftest import FAIL, PASS, Selftest
+from edge.appliance.selftest import FAIL, PASS, WARN, Check, Selftest, report
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -114,3 +114,35 @@ def test_ais_calibration_check_reads_the_health_registers() -> None:
     assert fault and text == ("disparity offset +0.091 px (sigma 0.007), bearing offset -0.020 deg "
                               "(sigma 0.030), 3 ships")
     assert _ais_monitor_text(regs({"lines": 5})) is None  # no estimate yet
+
+
+def _masks_check(tmp_path: Path, masks: dict) -> tuple[str, str]:
+    test = Selftest(write_config(tmp_path, free_port(), masks=masks))
+    assert test.check_config().result == PASS and test.check_calibration().result == PASS
+    check = test.check_masks()
+    return check.result, check.detail
+
+
+def test_masks_hiding_the_whole_sea_are_a_warning_not_a_failure(tmp_path: Path) -> None:
+    whole = {"image": [{"name": "everything", "polygon": [[0, 0], [719, 0], [719, 479], [0, 479]]}]}
+    result, detail = _masks_check(tmp_path, whole)
+    assert result == WARN and "whole sea" in detail
+    lower = {"image": [{"polygon": [[0, 300], [719, 300], [719, 479], [0, 479]]}]}
+    result, detail = _masks_check(tmp_path, lower)
+    assert result == PASS and "% of the sea" in detail
+    report_text = report([Check("site masks", WARN, "they hide the whole sea", "look"), Check("x", PASS, "")])
+    assert "all 2 checks passed or skipped, 1 with a warning" in report_text and "hint: look" in report_text
+
+
+def test_a_vertex_outside_the_scenarios_image_fails_the_masks_check(tmp_path: Path) -> None:
+    result, detail = _masks_check(tmp_path, {"image": [{"polygon": [[0, 0], [100, 0], [0, 100]]}]})
+    assert result == PASS
+    path = write_config(tmp_path, free_port())
+    data = yaml.safe_load(path.read_text())
+    del data["calibration"]  # the scenario's calibration: the size is known only when the source is planned
+    data["masks"] = {"image": [{"polygon": [[0, 0], [1000, 0], [0, 100]]}]}
+    path.write_text(yaml.safe_dump(data))
+    test = Selftest(path)
+    assert test.check_config().result == PASS and test.check_calibration().result == PASS
+    check = test.check_masks()
+    assert check.result == FAIL and "masks.image[0].polygon[1]" in check.detail

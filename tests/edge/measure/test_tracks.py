@@ -17,10 +17,11 @@ from edge.config.calibration import recording_calibration
 from edge.core.camera import PinholeCamera, StereoRig
 from edge.core.rectify import Rectifier
 from edge.fix import TrackStatus
+from edge.measure.anchor import CLIPPED_DN
 from edge.measure.filter_designs import Designs
 from edge.measure.point import TrackPoint
 from edge.measure.settings import PointSettings
-from edge.measure.tracks import CLIPPED_DN, WINDOW_VOTES, TableSettings, Track, TrackTable
+from edge.measure.tracks import WINDOW_VOTES, TableSettings, Track, TrackTable
 from edge.pipeline import Pipeline
 from edge.recording.format import read_truth
 

@@ -238,7 +238,7 @@ def test_existing_scenarios_leave_every_new_effect_off() -> None:
 @settings(max_examples=10, deadline=None)
 @given(st.floats(0.05, 2.0), st.floats(0.0, 0.04))
 def test_reversed_ranges_are_config_errors_naming_the_key(lo: float, gap: float) -> None:
-    from tests.edge.sim.conftest import calibration, scenario
+    from tests.edge.conftest import calibration, scenario
 
     data = scenario(calibration("ideal-720"), glitter={"duration_s": [lo + gap + 0.01, lo]})
     with pytest.raises(ConfigError, match="glitter.duration_s"):

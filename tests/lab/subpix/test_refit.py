@@ -1,4 +1,4 @@
-"""Shift-and-refit (edge/core/refit.py): interpolator taps, the refit's pull
+"""Shift-and-refit (lab/subpix/refit.py): interpolator taps, the refit's pull
 towards the truth from a wrong start, integer vs float, borders, and the acceptance bounds of
 issue 4 with subpixel="refit" on exact-shift renders."""
 
@@ -10,9 +10,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from edge.core import refit as rf
 from edge.core.match import match_point
 from edge.sim.synth import Condition, make_scene, render_pair, sweep
+from lab.subpix import refit as rf  # importing lab.subpix registers subpixel="refit"
 
 SEEDS = range(9200, 9216)          # unit-test seeds (bench-core uses 1000+ and 5000+)
 H = 7

@@ -30,7 +30,7 @@ aliased texture.
 Smoothing (lead "(c)" of the CRB work: noise-dependent): what the refit leaves at low noise is
 mostly aliasing (pixels integrate a scene with detail above Nyquist, so no interpolator can
 reproduce the other view exactly), a per-texture error the noise does not average out. Where
-the predicted sigma is small (match.REFIT_SMOOTH_MAX_SIGMA_PX) both views are filtered by
+the predicted sigma is small (REFIT_SMOOTH_MAX_SIGMA_PX) both views are filtered by
 [1 6 1]/8 before the fits, which weights the aliased band down for a little more noise, unless
 the aligned centre windows differ by more than MISMATCH_FACTOR times what the noise explains
 (a vertical offset between the views: 0.25 px trips it, the aliased texture of bench-core's
@@ -49,7 +49,7 @@ Q24), one division to Q10 per fit, and s + (rL - rR) / 2 is formed in Q11 and ro
 once to Q8. Float reference: float taps at the unrounded shift, float filter, sums and
 math.log2. Difference: 2^-11 (fits) + 2^-9 (final rounding) + the rounding of Rs (far below
 the noise) < 1/256 px; the refit moves by a small fraction of a change in s, so the float's
-unrounded s adds little (tests/edge/core/test_refit.py).
+unrounded s adds little (tests/lab/subpix/test_refit.py).
 Needs left columns xl - h - 1 - e .. xl + h + 1 + e and right columns xr - h - 5 - e ..
 xr + h + 4 + e (xr = xl - n, e = 1 with smoothing); `refit_q8` returns None when the bands do
 not hold them or a fit has no interior minimum.
@@ -70,8 +70,11 @@ from edge.core.fixedpoint import (
     log2_q_int,
     round_shift,
 )
+from edge.core.match import CostArithmetic, refine
 from edge.core.subpixel import gauss_fit_float
 
+REFIT_MAX_SIGMA_PX = 0.08          # match_point(subpixel="refit") refits only up to this predicted sigma
+REFIT_SMOOTH_MAX_SIGMA_PX = 0.01   # ... and smooths both views by [1 6 1]/8 up to this one
 PHASE_BITS = 8                    # the applied shift s in Q8 (1/256 px, the first estimate itself)
 TAP_BITS = 14                     # Q14 interpolation taps
 RS_BITS = 8                       # resampled right band in Q8 DN
@@ -290,3 +293,20 @@ def refit_float(left_band: np.ndarray, right_band: np.ndarray, xl: int, first_px
     if r_l is None or r_r is None:
         return None
     return first_px + 0.5 * (r_l - r_r)
+
+
+def refine_refit(arith: CostArithmetic, a_band: np.ndarray, b_band: np.ndarray, xa: int, d_lo: int,
+                 costs: np.ndarray, k0: int, sigma_px: float,
+                 noise_dn: float) -> tuple[float | int | None, str]:
+    """match_point's subpixel="refit": the "cancel" estimate, then the refit around it; where it
+    cannot run, or the predicted sigma exceeds REFIT_MAX_SIGMA_PX (noise-dominated windows),
+    "cancel6-gauss"."""
+    if sigma_px <= REFIT_MAX_SIGMA_PX:
+        first, _ = refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel")
+        step = refit_float if arith.is_float else refit_q8
+        noise = noise_dn if sigma_px <= REFIT_SMOOTH_MAX_SIGMA_PX else None
+        # values are Q8 ints on the integer path, floats on the float one (is_float)
+        value = None if first is None else step(a_band, b_band, xa, first, noise)  # type: ignore[arg-type]
+        if value is not None:
+            return value, ""
+    return refine(arith, a_band, b_band, xa, d_lo, costs, k0, "cancel6-gauss", sigma_px, noise_dn)
