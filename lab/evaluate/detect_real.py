@@ -443,15 +443,31 @@ def auto_horizon(paths: list[Path], geo: CameraGeometry) -> tuple[tuple[float, f
     return (0.0, float(y0)), (float(w - 1), float(y1))
 
 
-def run(args: argparse.Namespace) -> int:
-    cv2.setNumThreads(1)
+@dataclass
+class Dataset:
+    """An annotated image folder with its camera geometry, the images grouped by camera."""
+
+    default: CameraGeometry
+    cams: dict[str, CameraGeometry]
+    ann: dict[Path, list[Box]]
+    vessels: set[str]
+    groups: dict[str, list[Path]]
+
+
+def load_dataset(args: argparse.Namespace) -> Dataset:
+    """The images, boxes and geometry the command line names (evaluate-detect and train-detect)."""
     default, cams = load_geometry(args.geometry)
-    images = list_images(args.images)
-    ann = load_annotations(images, args.labels, args.format)
-    vessels = set(args.vessel_classes)
+    ann = load_annotations(list_images(args.images), args.labels, args.format)
     groups: dict[str, list[Path]] = defaultdict(list)
     for img in ann:
         groups[camera_key(img, cams)].append(img)
+    return Dataset(default, cams, ann, set(args.vessel_classes), groups)
+
+
+def run(args: argparse.Namespace) -> int:
+    cv2.setNumThreads(1)
+    data = load_dataset(args)
+    default, cams, ann, vessels, groups = data.default, data.cams, data.ann, data.vessels, data.groups
     if args.cameras:
         groups = {k: v for k, v in groups.items() if k in args.cameras}
     if args.out:

@@ -36,7 +36,6 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import argparse
 import shlex
 import sys
-from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -56,10 +55,7 @@ from lab.evaluate.detect_real import (
     _pct,
     bin_of,
     camera_frames,
-    camera_key,
-    list_images,
-    load_annotations,
-    load_geometry,
+    load_dataset,
     touches,
     waterline_on,
 )
@@ -95,13 +91,8 @@ class ImageRecord:
 
 def collect(args: argparse.Namespace, cameras: list[str]) -> dict[str, list[ImageRecord]]:
     """Candidates of every image of the cameras (cached per camera in --cache when given)."""
-    default, cams = load_geometry(args.geometry)
-    images = list_images(args.images)
-    ann = load_annotations(images, args.labels, args.format)
-    vessels = set(args.vessel_classes)
-    groups: dict[str, list[Path]] = defaultdict(list)
-    for img in ann:
-        groups[camera_key(img, cams)].append(img)
+    data = load_dataset(args)
+    default, cams, ann, vessels, groups = data.default, data.cams, data.ann, data.vessels, data.groups
     out = {}
     for key in cameras:
         cache = args.cache / f"{key}.npz" if args.cache else None
