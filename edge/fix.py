@@ -49,3 +49,4 @@ class ShipFix:
     en_state: tuple[float, float, float, float] | None = None  # east m, north m, v east m/s, v north m/s
     en_cov: tuple[float, ...] | None = None  # its 4x4 covariance, row-major (16 values, m and m/s)
     sigma_across_m: float | None = None  # the share of sigma_m across the line of sight (bearing), m
+    coasted: bool = False  # no usable position this pair: the last measured one carried (edge.measure.coast)

@@ -14,6 +14,11 @@ an exception deep in a track) is counted and skipped, never raised: the
 daemon must keep running. Gaps in `t_ns` longer than a frame period are
 counted as skipped pairs and the filters coast through them.
 
+Every track the tracker holds is in every step's fixes from its first fix until its drop: in a pair
+where its point cannot be ranged on (disparity unknown, or scattering more than the usable bound)
+its last measured fix is coasted to the pair (`edge.measure.coast`), so no output sees a track end
+and start again while the tracker still holds it.
+
 Speed and course come from each track's ground-plane filter (`edge.measure.groundtrack`: an IMM of
 two constant-velocity Kalman filters on east/north, fed each pair's own triangulated position with
 its anisotropic covariance). They are left unknown (None: empty in TTM, the "unknown" value on
@@ -40,6 +45,7 @@ from edge.core.rectify import Rectifier
 from edge.core.site import Site
 from edge.core.triangulation import position_error, triangulate_normalised
 from edge.fix import ShipFix, TrackStatus
+from edge.measure.coast import coast
 from edge.measure.detect import Detector
 from edge.measure.groundtrack import GroundSettings, GroundTracks, PairFix, column_noise_px, pair_fix
 from edge.measure.seadetect import SeaDetector
@@ -107,6 +113,7 @@ class Pipeline:
                                                   max_cog_sigma_deg=cfg.max_cog_sigma_deg))
         self.counters = Counters()
         self._last_t_ns: int | None = None
+        self._last_measured: dict[int, ShipFix] = {}  # track id -> its last measured fix (for coasting)
         self._since_detect = cfg.detect_every - 1  # detect on the first pair
         self._logged: set[str] = set()
 
@@ -185,8 +192,20 @@ class Pipeline:
 
     # ------------------------------------------------------------ fixes
     def _fixes(self, tracks: list[Track], t_ns: int) -> list[ShipFix]:
+        """Every live track's fix: measured where its point can be ranged on, else, for a track that
+        has had a fix, its last one coasted to this pair (`edge.measure.coast`), so only a drop
+        from the tracker ends a track in the outputs."""
         live = [t for t in tracks if t.point.disparity is not None and t.point.disparity > 0.0
                 and (t.point.usable or t.point.scatter_px() is None)]
+        measured = {f.track_id: f for f in self._measured_fixes(live, tracks, t_ns)}
+        self._last_measured = {t.id: measured.get(t.id) or self._last_measured[t.id] for t in tracks
+                               if t.id in measured or t.id in self._last_measured}
+        return [measured.get(t.id) or coast(self._last_measured[t.id], t_ns + self.utc_offset_ns, t.status,
+                                            self.site, age_s=t.age_s(t_ns), confidence=t.confidence)
+                for t in tracks if t.id in self._last_measured]
+
+    def _measured_fixes(self, live: list[Track], tracks: list[Track], t_ns: int) -> list[ShipFix]:
+        """The fixes of the `live` tracks (those whose point can be ranged on in this pair)."""
         if not live:
             self._ground_step(tracks, t_ns)
             return []

@@ -39,7 +39,7 @@ from edge.config.masks import build_search_mask
 from edge.encode.tracks_csv import CSV_HEADER, csv_row
 from edge.errors import ConfigError
 from edge.fix import ShipFix
-from edge.outputs.asterix import AsterixOutput
+from edge.outputs.asterix import AsterixOutput, sensor_position
 from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Counters, Pipeline
 from edge.recording.format import read_ais
@@ -136,8 +136,7 @@ def build_asterix(config: AppConfig | None, pipeline: Pipeline, clock: Callable[
     clocked by the pairs, status always operational (a recording has no appliance health); UDP
     to the configured destinations with `send`, else only the blocks (for a file)."""
     cfg = config.outputs.asterix if config is not None else AsterixConfig()
-    site = pipeline.site
-    position = (site.lat_deg, site.lon_deg, site.height_m)
+    position = sensor_position(pipeline.site)
     if send:
         return AsterixOutput.from_config(cfg, None, position, clock=clock)
     return AsterixOutput(cfg, site=position, clock=clock)

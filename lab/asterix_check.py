@@ -8,13 +8,19 @@ exposure (time of day within 1/128 s, the nearest position). Checks, per recordi
 
 - positions: the decoded I010/041 within `MAX_POSITION_M` (1 m) of the TLL position;
 - speed and course: decoded I010/200 against TTM's, within TTM's rounding (0.05 kn, 0.05 deg) plus
-  half the ASTERIX LSB (2^-14 NM/s = 0.22 kn, 360/2^16 deg); I010/200 absent where TTM has no course;
+  half the ASTERIX LSB (2^-14 NM/s = 0.22 kn, 360/2^16 deg); decoded I010/202 (vx east, vy north)
+  against TTM's speed and course resolved on east and north, each within half its LSB (0.125 m/s)
+  plus what TTM's rounding moves it; I010/200 and /202 absent where TTM has no course (a TTM with
+  a speed and no course is counted apart: I010/200 cannot carry a speed alone);
 - track numbers: one I010/161 number per track id (the TLL name is TRK + id) for its whole life,
   and no number shared by two tracks (4,095 numbers lent least-recently-used first);
-- TRE: each track number's last report has I010/170 TRE set (the replay ends every track at the end).
+- TRE: each track number's last report has I010/170 TRE set (the replay ends every track at the end),
+  and no report before it does (a track ends once, at its drop from the tracker).
 
 Prints one table row per recording and exits 1 if any check fails. `--bench N` also prints
-the output's CPU cost per pair with N tracks (the median of 7 runs of 200 pairs).
+the output's CPU cost per pair with N tracks (the median of 7 runs of 200 pairs). `--live MINUTES`
+runs the daemon for that long with ASTERIX to a receiver on loopback and has tshark decode
+every datagram (`lab.asterix_live`; `--recording DIR` instead of the demo's, `--out DIR`).
 """
 
 from __future__ import annotations
@@ -33,6 +39,8 @@ MAX_POSITION_M = 1.0
 SPEED_TOL_KN = 0.05 + 0.5 * 3600.0 / 2**14
 COURSE_TOL_DEG = 0.05 + 0.5 * 360.0 / 2**16
 TOD_TOL_S = 1 / 128
+VELOCITY_LSB_MPS = 0.25  # I010/202, as the specification (and asterix-decoder) read it
+KN_PER_MPS = 3600.0 / 1852.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,6 +55,9 @@ class Report:
     cnf: int
     sog_kn: float | None
     cog_deg: float | None
+    vx_mps: float | None = None  # I010/202
+    vy_mps: float | None = None
+    coasting: bool = False  # I010/170 CST not 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +84,12 @@ class Check:
     speed_checked: int = 0
     speed_bad: int = 0
     course_bad: int = 0
+    velocity_bad: int = 0  # I010/202 components off TTM's by more than their tolerance
+    max_speed_kn: float = 0.0  # largest |I010/200 speed - TTM's|
+    max_course_deg: float = 0.0
+    max_velocity_mps: float = 0.0  # largest I010/202 component error beyond TTM's own rounding
+    speed_only: int = 0  # TTMs with a speed and no course (nothing to compare: I010/200 needs both)
+    i200_bad: int = 0  # updates whose I010/200 speed or course is off
     velocity_missing: int = 0  # TTM has speed and course, ASTERIX no I010/200
     velocity_extra: int = 0  # ASTERIX has I010/200, TTM has no course
     tracks: int = 0
@@ -81,15 +98,16 @@ class Check:
     numbers_ended: int = 0
     tre_missing: int = 0  # numbers whose last report has no TRE
     tre_midway: int = 0  # TRE reports followed by more reports of the same number
+    coasting_midway: int = 0  # coasting reports (CST) followed by more reports of the same number
     largest_block: int = 0
     problems: list[str] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
         return (self.unmatched == 0 and self.max_position_m <= MAX_POSITION_M and self.speed_bad == 0
-                and self.course_bad == 0 and self.velocity_missing == 0 and self.velocity_extra == 0
-                and self.number_changes == 0 and self.shared_numbers == 0 and self.tre_missing == 0
-                and self.largest_block <= 1472)
+                and self.course_bad == 0 and self.velocity_bad == 0 and self.velocity_missing == 0
+                and self.velocity_extra == 0 and self.number_changes == 0 and self.shared_numbers == 0
+                and self.tre_missing == 0 and self.tre_midway == 0 and self.largest_block <= 1472)
 
 
 def split_blocks(data: bytes) -> list[bytes]:
@@ -113,15 +131,29 @@ def decode(blocks: Iterable[bytes]) -> tuple[list[Report], list[dict[str, Any]]]
     for block in blocks:
         for rec in asterix.parse(block, verbose=False):
             if rec["category"] == 10 and rec["I000"]["MsgTyp"]["val"] == 1:
-                vel = rec.get("I200")
+                vel, cart = rec.get("I200"), rec.get("I202")
                 reports.append(Report(
                     rec["I140"]["ToD"]["val"], rec["I161"]["TrkNb"]["val"], rec["I041"]["Lat"]["val"],
                     rec["I041"]["Lon"]["val"], bool(rec["I170"]["TRE"]["val"]), rec["I170"]["CNF"]["val"],
                     None if vel is None else vel["GS"]["val"] * 3600.0,
-                    None if vel is None else vel["TA"]["val"]))
+                    None if vel is None else vel["TA"]["val"],
+                    None if cart is None else cart["Vx"]["val"], None if cart is None else cart["Vy"]["val"],
+                    bool(rec["I170"]["CST"]["val"])))
             else:
                 others.append(rec)
     return reports, others
+
+
+def velocity_error_mps(report: Report, sog_kn: float, cog_deg: float) -> float | None:
+    """The larger I010/202 component error against TTM's speed and course resolved on east and
+    north, less what TTM's own rounding (0.05 kn, 0.05 deg) can move a component; None without
+    I010/202. Within half the LSB (0.125 m/s) is a pass."""
+    if report.vx_mps is None or report.vy_mps is None:
+        return None
+    v, c = sog_kn / KN_PER_MPS, math.radians(cog_deg)
+    rounding = 0.05 / KN_PER_MPS + v * math.radians(0.05)
+    err = max(abs(report.vx_mps - v * math.sin(c)), abs(report.vy_mps - v * math.cos(c)))
+    return max(0.0, err - rounding)
 
 
 def _hms_s(text: str) -> float:
@@ -183,11 +215,20 @@ def compare(name: str, blocks: Sequence[bytes], nmea: str) -> Check:
                 check.velocity_missing += 1
                 continue
             check.speed_checked += 1
-            check.speed_bad += abs(best.sog_kn - u.sog_kn) > SPEED_TOL_KN
+            ds = abs(best.sog_kn - u.sog_kn)
             dc = abs((best.cog_deg - u.cog_deg + 180.0) % 360.0 - 180.0)
+            check.speed_bad += ds > SPEED_TOL_KN
             check.course_bad += dc > COURSE_TOL_DEG
-        elif u.cog_deg is None and best.cog_deg is not None:
+            check.i200_bad += ds > SPEED_TOL_KN or dc > COURSE_TOL_DEG
+            check.max_speed_kn = max(check.max_speed_kn, ds)
+            check.max_course_deg = max(check.max_course_deg, dc)
+            dv = velocity_error_mps(best, u.sog_kn, u.cog_deg)
+            check.velocity_bad += dv is None or dv > VELOCITY_LSB_MPS / 2
+            check.max_velocity_mps = max(check.max_velocity_mps, math.inf if dv is None else dv)
+        elif u.cog_deg is None and (best.cog_deg is not None or best.vx_mps is not None):
             check.velocity_extra += 1
+        if u.sog_kn is not None and u.cog_deg is None:
+            check.speed_only += 1
     check.tracks = len(numbers_of)
     check.number_changes = sum(len(n) > 1 for n in numbers_of.values())
     owners: dict[int, set[int]] = defaultdict(set)
@@ -203,6 +244,7 @@ def compare(name: str, blocks: Sequence[bytes], nmea: str) -> Check:
     for rs in by_number.values():
         check.tre_missing += not rs[-1].tre
         check.tre_midway += sum(r.tre for r in rs[:-1])
+        check.coasting_midway += sum(r.coasting for r in rs[:-1])
     return check
 
 
@@ -214,15 +256,18 @@ def check_recording(root: Path, config: Path | None = None) -> Check:
     return compare(root.name, split_blocks(blocks.getvalue()), nmea.getvalue())
 
 
-HEADER = ("recording", "blocks", "reports", "TLLs", "max d m", "spd/crs ok", "tracks", "nr changes",
-          "TRE last", "TRE mid", "max block B", "result")
+HEADER = ("recording", "blocks", "reports", "TLLs", "max d m", "I200 ok", "max dSOG kn", "max dCOG deg",
+          "I202 ok", "SOG only", "tracks", "nr changes", "TRE last", "TRE mid", "max block B", "result")
 
 
 def row(c: Check) -> tuple[str, ...]:
+    n = c.speed_checked
+    extra = (f" (miss {c.velocity_missing}, extra {c.velocity_extra})"
+             if c.velocity_missing or c.velocity_extra else "")
     return (c.recording, str(c.blocks), str(c.reports), f"{c.updates - c.unmatched}/{c.updates}",
-            f"{c.max_position_m:.3f}", f"{c.speed_checked - c.speed_bad - c.course_bad}/{c.speed_checked}"
-            + (f" (miss {c.velocity_missing}, extra {c.velocity_extra})" if c.velocity_missing
-               or c.velocity_extra else ""),
+            f"{c.max_position_m:.3f}", f"{n - c.i200_bad}/{n}{extra}",
+            f"{c.max_speed_kn:.3f}" if n else "-", f"{c.max_course_deg:.4f}" if n else "-",
+            f"{n - c.velocity_bad}/{n}", str(c.speed_only),
             str(c.tracks), str(c.number_changes), f"{c.numbers_ended - c.tre_missing}/{c.numbers_ended}",
             str(c.tre_midway), str(c.largest_block), "PASS" if c.passed else "FAIL")
 
@@ -263,7 +308,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--config", type=Path, help="configuration (outputs.asterix, pipeline settings)")
     parser.add_argument("--bench", type=int, metavar="TRACKS",
                         help="also print the output's CPU cost per pair with this many tracks")
+    parser.add_argument("--live", type=float, metavar="MINUTES",
+                        help="run the daemon this long with ASTERIX to loopback; tshark decodes what arrived")
+    parser.add_argument("--recording", type=Path, help="--live: the recording the daemon replays "
+                        "(default: the demo's, out/demo/akashi-crossing, rendered if missing)")
+    parser.add_argument("--out", type=Path,
+                        help="--live: where the config, log and pcap go (out/asterix-live)")
     args = parser.parse_args(argv)
+    if args.live:
+        from lab import asterix_live
+
+        out = args.out or asterix_live.ROOT / "out" / "asterix-live"
+        return asterix_live.main(args.live, args.recording, out)
     if args.bench:
         step_ms, record_us = bench_publish(args.bench)
         print(f"ASTERIX publish, {args.bench} tracks: {step_ms:.3f} ms CPU per pair, "

@@ -59,6 +59,7 @@ from edge.config.masks import build_search_mask
 from edge.config.trust import check_config_files
 from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
+from edge.outputs.asterix import sensor_position
 from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Pipeline
@@ -113,6 +114,7 @@ class Appliance:
         self.on_health: HealthCallback | None = None
         self.leds: LedPanel | None = build_leds(config.health.leds)
         self.clock: Clock = SystemClock()
+        self.clock_check_s = CLOCK_CHECK_S  # the fault bench shortens it
         self.wall_clock_ns: Callable[[], int] = time.time_ns  # anchors a recording's UTC at its first pair
         self._clock_checked_s = -math.inf
         self.queue = LatestPair()
@@ -164,9 +166,10 @@ class Appliance:
                  extra_nmea: Sequence[NmeaStreamOutput]) -> Outputs:
         site = plan.calibration.site
         assert site is not None  # build() refuses a plan without a site
+        asterix_site = sensor_position(site) if config.outputs.asterix.enabled else None
         outputs = Outputs.from_config(config.outputs, health, max_tracks=config.pipeline.max_tracks,
                                       site_lat_deg=site.lat_deg, site_lon_deg=site.lon_deg,
-                                      alerts=alerts, site_height_m=site.height_m,
+                                      alerts=alerts, asterix_site=asterix_site,
                                       dark_prefix="DARK" if config.ais is None else config.ais.dark_prefix)
         for stream in extra_nmea:
             outputs.add(stream)
@@ -336,7 +339,7 @@ class Appliance:
 
     def _report(self, snap: HealthSnapshot, ready: bool) -> None:
         now_s = time.monotonic()
-        if now_s - self._clock_checked_s >= CLOCK_CHECK_S:  # NMEA carries UTC: is it true UTC?
+        if now_s - self._clock_checked_s >= self.clock_check_s:  # NMEA carries UTC: is it true UTC?
             self._clock_checked_s = now_s
             self.health.set_flags(Status.TIME_SYNC, self.clock.synchronised())
         self.faults.observe(snap)

@@ -1,4 +1,5 @@
-"""What must survive a crash: NMEA target numbers in use or in quarantine, and the next track id.
+"""What must survive a crash: NMEA and ASTERIX track numbers in use or in quarantine, and the next
+track id.
 
 A receiver (OpenCPN, a radar display) keys targets by their number; if the daemon is killed
 (SIGKILL, power loss, the watchdog) and restarts with empty allocators, it would lend number 01
@@ -27,7 +28,12 @@ directory) so a kill at any point leaves the old file or the new one, never a mi
 writer thread of their own (newest state wins), so the processing thread never waits for a disk.
 The format is versioned JSON of a few hundred bytes.
 
-The daemon's side, `Persistence`, restores the pipeline's and NMEA outputs' state and saves changes.
+ASTERIX I010/161 numbers (1-4,095, `edge.outputs.asterix`) are kept by the same rules under the
+key `asterix:SAC/SIC`: a VTS that saw track 12 of this sensor before a crash must not see a new
+ship as 12 seconds after the restart.
+
+The daemon's side, `Persistence`, restores the pipeline's and the numbering outputs' state and
+saves changes.
 
 `Persistence.open(config)` finds the state directory (none configured: returns None and nothing
 is kept). `restore` is called before the first pair (and after a reload that rebuilt the
@@ -50,6 +56,7 @@ from pathlib import Path
 from typing import Any
 
 from edge.encode.target_numbers import TargetNumbers
+from edge.outputs.asterix import AsterixOutput
 from edge.outputs.fanout import Outputs
 from edge.outputs.nmea_serial import NmeaSerialOutput
 from edge.outputs.nmea_udp import NmeaUdpOutput
@@ -179,7 +186,8 @@ class StateKeeper:
             self.fault, self.corrupt = f"state file {self.path} unusable: {exc}", True
         from edge.appliance.journal import MESSAGE_IDS
 
-        policy = "every NMEA target number held for the quarantine" if self.corrupt else "first start?"
+        policy = "every NMEA and ASTERIX track number held for the quarantine" if self.corrupt \
+            else "first start?"
         log.error("%s: %s; track ids restart from the clock", self.fault, policy,
                   extra={"MESSAGE_ID": MESSAGE_IDS["state_lost"], "FAULT": self.fault})
         return None
@@ -214,12 +222,15 @@ class StateKeeper:
         self._thread.join(timeout=2.0)
 
 def allocators(outputs: Outputs) -> Iterator[tuple[str, TargetNumbers]]:
-    """(key, allocator) of every NMEA output: the serial port's URL or the UDP group and port."""
+    """(key, allocator) of every output that numbers tracks: an NMEA serial port by its URL, the
+    NMEA UDP output by its source, ASTERIX by its SAC/SIC (a VTS keys I010/161 by them)."""
     for out in outputs.outputs:
         if isinstance(out, NmeaSerialOutput):
             yield f"serial:{out.port.name}", out.scheduler.numbers
         elif isinstance(out, NmeaUdpOutput):
             yield f"udp:{out.source}", out.scheduler.numbers
+        elif isinstance(out, AsterixOutput):
+            yield f"asterix:{out.source.sac}/{out.source.sic}", out.numbers
 
 
 class Persistence:
@@ -285,7 +296,7 @@ class Persistence:
         if self.hold_until_s is None or time.monotonic() >= self.hold_until_s:
             return None
         left_s = self.hold_until_s - time.monotonic()
-        return f"state lost: NMEA target numbers held {left_s:.0f} s more"
+        return f"state lost: NMEA and ASTERIX track numbers held {left_s:.0f} s more"
 
     def close(self, pipeline: Pipeline, outputs: Outputs) -> None:
         self._versions = {}

@@ -45,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from edge.appliance.console import LiveTable
     from edge.appliance.daemon import Appliance
     from edge.appliance.journal import setup_logging
+    from edge.outputs.asterix import AsterixOutput
     from edge.outputs.nmea_stream import NmeaStreamOutput
 
     setup_logging(config.logging.level)
@@ -67,4 +68,11 @@ def run(args: argparse.Namespace) -> int:
     logging.getLogger("mast-stereo").info(
         "stopped: %d pairs processed, %d dropped before processing, %d bad, %d failed, %d fixes",
         c.processed, appliance.queue.dropped, c.bad_input, c.failed, c.fixes)
+    for out in appliance.outputs.outputs:
+        if isinstance(out, AsterixOutput):  # what a VTS should have received (tools/asterix-check --live)
+            _, counters = out.health()
+            logging.getLogger("mast-stereo").info(
+                "ASTERIX: %d records in %d data blocks, %d datagrams sent, %d dropped, %d send errors",
+                out.counts["records"], out.counts["blocks"], counters["asterix_udp_datagrams"],
+                counters["asterix_udp_dropped"], counters["asterix_udp_errors"])
     return status

@@ -299,8 +299,8 @@ class AppConfig:
         None,
         load=optional_site,
         accepts="a site mapping or null",
-        doc="lat_deg, lon_deg, height_m, heading_deg, optional tilt_sigma_deg (mast-lean bound, deg); "
-        "overrides the calibration's",
+        doc="lat_deg, lon_deg, height_m, heading_deg, optional tilt_sigma_deg (mast-lean bound, deg) and "
+        "geoid_separation_m (ASTERIX I034/120's ellipsoidal height); overrides the calibration's",
     )
     pipeline: PipelineConfig = setting(default_factory=PipelineConfig)
     outputs: OutputsConfig = setting(default_factory=OutputsConfig)

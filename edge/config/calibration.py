@@ -65,6 +65,11 @@ class SiteSchema:
         None, min=0.0, max=5.0,
         doc="1-sigma bound on the mast's lean (each horizontal axis) since calibration, degrees; null: "
         "none given (with calibration standard errors: 0; without them the 0.5 px row figure stands)")
+    geoid_separation_m: float | None = setting(
+        None, min=-110.0, max=90.0,
+        doc="geoid height N above the WGS-84 ellipsoid at the site, m (a GNSS receiver's GGA geoid "
+        "separation); only ASTERIX I034/120 uses it (ellipsoidal height = height_m + N); null: not given, "
+        "I034/120 then carries height_m")
 
 
 @dataclass(frozen=True)
@@ -128,7 +133,7 @@ def site_from_dict(data: Any, file: str | Path | None, key: str = "site") -> Sit
 
 def _site(s: SiteSchema) -> Site:
     return Site(lat_deg=s.lat_deg, lon_deg=s.lon_deg, height_m=s.height_m, heading_deg=s.heading_deg % 360.0,
-                tilt_sigma_deg=s.tilt_sigma_deg)
+                tilt_sigma_deg=s.tilt_sigma_deg, geoid_separation_m=s.geoid_separation_m)
 
 
 def _rig_sigma(cameras: _Cameras, file: Any, prefix: str) -> RigSigma | None:
@@ -250,6 +255,8 @@ def site_to_dict(site: Site) -> dict[str, float]:
     }
     if site.tilt_sigma_deg is not None:
         out["tilt_sigma_deg"] = float(site.tilt_sigma_deg)
+    if site.geoid_separation_m is not None:
+        out["geoid_separation_m"] = float(site.geoid_separation_m)
     return out
 
 

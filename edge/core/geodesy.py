@@ -13,6 +13,11 @@ Bowring's formula with a few fixed-point refinements (sub-millimetre, far below
 anything a camera measures). Heights are taken as given for site and points
 (both above mean sea level): over a few kilometres the geoid undulation is the
 same at both ends to well within a centimetre, so it cancels.
+
+Where a height must be the ellipsoid's (ASTERIX I034/120 states the sensor's position on WGS-84),
+`ellipsoidal_height_m` adds the site's geoid separation N when the survey gives it; the project
+has no geoid model, and without N a height above mean sea level is off by N, whose magnitude is
+at most `GEOID_SEPARATION_BOUND_M` anywhere (EGM2008 spans about -107 m to +86 m).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from edge.core.site import Site
 WGS84_A_M = 6378137.0  # semi-major axis
 WGS84_F = 1.0 / 298.257223563  # flattening
 WGS84_E2 = WGS84_F * (2.0 - WGS84_F)  # first eccentricity squared
+GEOID_SEPARATION_BOUND_M = 107.0  # |N| anywhere on Earth (EGM2008: about -107 m to +86 m)
 
 
 def geodetic_to_ecef(
@@ -60,6 +66,14 @@ def ecef_to_geodetic(xyz_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 @functools.lru_cache(maxsize=8)
+def ellipsoidal_height_m(site: Site) -> float | None:
+    """The site's height above the WGS-84 ellipsoid, h = H + N (H its height above mean sea level,
+    N the geoid's separation from the ellipsoid there); None when the site gives no N."""
+    if site.geoid_separation_m is None:
+        return None
+    return site.height_m + site.geoid_separation_m
+
+
 def world_axes(site: Site) -> np.ndarray:
     """3x3 matrix whose rows are the world X (right), Y (down), Z (forward) axes in ECEF.
     Computed once per site (the pipeline converts every pair's fixes with it): read-only."""

@@ -31,6 +31,8 @@ from typing import Protocol
 from drivers.udp import MulticastUdpSender, UdpStats
 from edge.appliance.health import HealthSnapshot, Status
 from edge.config.asterix import AsterixConfig, AsterixDestination
+from edge.core.geodesy import ellipsoidal_height_m
+from edge.core.site import Site
 from edge.encode.asterix import cat010, cat034
 from edge.encode.asterix.blocks import pack_blocks
 from edge.encode.asterix.cat010 import SensorStatus, Source
@@ -51,6 +53,19 @@ class BlockSender(Protocol):
     def stats(self) -> UdpStats: ...
 
     def close(self) -> None: ...
+
+
+def sensor_position(site: Site) -> tuple[float, float, float]:
+    """What CAT 034 I034/120 states: the site's latitude, longitude and height above the WGS-84
+    ellipsoid, which needs the site's geoid separation (`site.geoid_separation_m`). Without it the
+    height above mean sea level is sent (off by the geoid separation there, at most
+    `GEOID_SEPARATION_BOUND_M` anywhere), logged once here."""
+    height_m = ellipsoidal_height_m(site)
+    if height_m is None:
+        log.info("ASTERIX I034/120: site.geoid_separation_m not given, the height above mean sea level "
+                 "(%.1f m) goes out as the ellipsoidal height", site.height_m)
+        height_m = site.height_m
+    return site.lat_deg, site.lon_deg, height_m
 
 
 def udp_sender(dest: AsterixDestination) -> MulticastUdpSender:

@@ -89,9 +89,10 @@ class Outputs:
                     site_lat_deg: float | None = None, site_lon_deg: float | None = None,
                     clock: Callable[[], float] = time.monotonic,
                     alerts: AlertManager | None = None, dark_prefix: str = "DARK",
-                    site_height_m: float | None = None) -> Outputs:
+                    asterix_site: tuple[float, float, float] | None = None) -> Outputs:
         """The configured transports; with `alerts` (the chain's manager) the NMEA ports render its
-        alert sentences and Modbus its alert block."""
+        alert sentences and Modbus its alert block; `asterix_site` is what CAT 034 I034/120 states
+        (`edge.outputs.asterix.sensor_position`)."""
         manager = alerts
         outputs: list[Output] = []
         for port in cfg.nmea:
@@ -109,9 +110,7 @@ class Outputs:
         if cfg.tracks_csv is not None:
             outputs.append(TracksCsvOutput(cfg.tracks_csv))
         if cfg.asterix.enabled:
-            site = None if site_lat_deg is None or site_lon_deg is None else \
-                (site_lat_deg, site_lon_deg, site_height_m or 0.0)
-            outputs.append(AsterixOutput.from_config(cfg.asterix, health.snapshot, site))
+            outputs.append(AsterixOutput.from_config(cfg.asterix, health.snapshot, asterix_site))
         servers: list[ModbusServer] = []
         if cfg.modbus.tcp.enabled:
             servers.append(ModbusTcpServer(cfg.modbus.tcp.host, cfg.modbus.tcp.port))

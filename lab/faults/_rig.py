@@ -6,7 +6,9 @@ source a real `V4L2PairSource` whose two cameras are `FakeDevice`s behind the ke
 pair (a ship at ~1.5 km, so the daemon tracks and emits). Every frame carries its ground-truth
 pulse id (`FakeDevice.pulses`), and every pair the pipeline processes is logged, so a mispaired
 pair is visible however it came about. The knobs a case turns: `trigger_on`, `skew_us`,
-`drop_every`, `burst`, `unplug`/`replug` and the wall-clock step `utc_step_s`.
+`drop_every`, `burst`, `unplug`/`replug` and the wall-clock step `utc_step_s`; at start, ASTERIX to
+a loopback port (`asterix_port`) and the daemon's clock (`clock`, a `VirtualClock` a case flips,
+checked every `clock_check_s`).
 
 What the unit shows is read the way a technician's tools read it, over real sockets: systemd's
 side of sd_notify (an AF_UNIX datagram socket at $NOTIFY_SOCKET), a raw Modbus TCP client polling
@@ -32,6 +34,7 @@ import numpy as np
 from drivers.camera.base import FramePair
 from drivers.camera.v4l2 import CameraSettings, V4L2Camera
 from drivers.camera.v4l2_pair import V4L2PairSource, realtime_offset_ns
+from drivers.clock import Clock
 from drivers.leds.base import health_patterns
 from drivers.notify import SystemdNotifier
 from drivers.trigger.virtual import VirtualTrigger
@@ -226,8 +229,12 @@ class Bench:
     """The daemon on two fake cameras; use as a context manager (`with Bench(tmp) as b:`)."""
 
     def __init__(self, workdir: Path, *, max_skew_ms: float | None = None, stale_s: float = 2.0,
-                 watchdog_usec: int | None = None, record: Path | None = None) -> None:
+                 watchdog_usec: int | None = None, record: Path | None = None,
+                 asterix_port: int | None = None, clock: Clock | None = None,
+                 clock_check_s: float | None = None) -> None:
         self.workdir = workdir
+        self.asterix_port = asterix_port  # ASTERIX (tracks and status) to 127.0.0.1 at this port
+        self.clock, self.clock_check_s = clock, clock_check_s  # the daemon's clock and its check period
         self.trigger_on, self.skew_us, self.burst = True, 0, 0
         self.drop_every: tuple[str, int] | None = None  # (side, n): that camera loses every n-th pulse
         self.dropped_by_us = {"left": 0, "right": 0}
@@ -281,9 +288,11 @@ class Bench:
         self.notify = NotifyListener(self.workdir / "notify.sock")
         self.pty = PtyReader()
         self.port = free_port()
+        to_rx = {"address": "127.0.0.1", "port": self.asterix_port or 8600}
         cfg = {"cameras": {"kind": "virtual", "scenario": SCENARIO, "pace": True},  # calibration and site
                "outputs": {"modbus": {"tcp": {"enabled": True, "host": "127.0.0.1", "port": self.port}},
-                           "nmea": [{"url": self.pty.path, "baud": 115200}]},
+                           "nmea": [{"url": self.pty.path, "baud": 115200}],
+                           "asterix": {"enabled": self.asterix_port is not None, "tracks": to_rx}},
                "health": {"stale_s": self.stale_s, "min_fps": 0.0, "require_clock_sync": False,
                           "leds": {"kind": "virtual"}},
                "logging": {"level": "WARNING"}}
@@ -296,6 +305,10 @@ class Bench:
             os.environ.pop("WATCHDOG_USEC", None)
         config = config_from_dict(cfg, self.workdir / "bench.yaml")
         self.app = Appliance.build(config, None, SystemdNotifier(), record=self.record)
+        if self.clock is not None:
+            self.app.clock = self.clock
+        if self.clock_check_s is not None:
+            self.app.clock_check_s = self.clock_check_s
         self.app.plan = dataclasses.replace(self.app.plan, open=self._source, fps=RATE_HZ,
                                             monotonic_stamps=True,
                                             description="two fake V4L2 cameras, virtual trigger")

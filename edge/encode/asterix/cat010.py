@@ -7,7 +7,8 @@ Target report (message type 1), items in FRN order:
   /161 track number, /170 track status, /270 length (and the course as orientation) when the
   length is known, /500 the position's standard deviations and covariance.
 I010/170: CNF = 1 (initiation) for a Q track, 0 for T and L; TRE = 1 on the report that ends a
-track; CST = 3 (unpredictable absence of detection) while the track is L (coasting), else 0;
+track; CST = 3 (unpredictable absence of detection) while the track is L or its fix is coasted
+(no usable position in this pair: `edge.measure.coast`), else 0;
 TCC = 1 (tracked on the ground plane) and STH = 1 (smoothed: the filtered disparity).
 I010/500 comes from the fix's own 1-sigma: `sigma_across_m` across the line of sight (the
 bearing's share), the rest of `sigma_m` along it, rotated to east/north by the bearing; without
@@ -136,7 +137,7 @@ def target_report(fix: ShipFix, number: int, source: Source, *, last: bool = Fal
         frns += (FRN["200"], FRN["202"])
         parts += (polar_velocity(fix.sog_kn, fix.cog_deg),
                   cartesian_velocity(*velocity_en_mps(fix.sog_kn, fix.cog_deg)))
-    coasting = Coasting.UNPREDICTABLE if fix.status is TrackStatus.LOST else Coasting.NONE
+    coasting = Coasting.UNPREDICTABLE if fix.status is TrackStatus.LOST or fix.coasted else Coasting.NONE
     frns += (FRN["161"], FRN["170"])
     parts += (track_number(number),
               track_status(tentative=fix.status is TrackStatus.ACQUIRING, last=last, coasting=coasting))

@@ -19,6 +19,7 @@ from edge.appliance.state import (
     write_atomic,
 )
 from edge.encode.target_numbers import TargetNumbers
+from edge.fix import TrackStatus
 
 
 def allocator() -> TargetNumbers:
@@ -79,3 +80,55 @@ def test_keeper_reports_missing_and_corrupt_files_and_saves_atomically(
     keeper.offer(State(6, {}))
     keeper.close()
     assert parse_state((tmp_path / FILE_NAME).read_text(), time.time(), time.monotonic()).next_track_id == 6
+
+
+def _appliance(tmp_path: Path, port: int):
+    from drivers.notify import SystemdNotifier
+    from edge.appliance.daemon import Appliance
+    from edge.config.app import config_from_dict
+
+    cfg = {"cameras": {"kind": "virtual", "scenario": "akashi-crossing"},
+           "site": {"lat_deg": 34.63, "lon_deg": 135.02, "height_m": 25.0, "heading_deg": 180.0,
+                    "geoid_separation_m": 37.4},
+           "outputs": {"modbus": {"tcp": {"enabled": False}},
+                       "asterix": {"enabled": True, "cat034": True,
+                                   "tracks": {"address": "127.0.0.1", "port": port}}},
+           "health": {"state_dir": str(tmp_path / "state"), "leds": {"kind": "none"}}}
+    return Appliance.build(config_from_dict(cfg, tmp_path / "mast.yaml"), None, SystemdNotifier())
+
+
+def test_asterix_track_numbers_survive_a_crash(tmp_path: Path) -> None:
+    """ASTERIX I010/161 numbers are kept like the NMEA ones: after a crash (no clean close) the
+    restarted daemon lends none of the numbers the killed one had in use; and its CAT 034 I034/120
+    states the site's height above the ellipsoid (height_m + geoid_separation_m)."""
+    from edge.fix import ShipFix
+    from edge.outputs.asterix import AsterixOutput
+    from lab.asterix_capture import UdpReceiver
+
+    def fixes(*ids: int) -> list[ShipFix]:
+        return [ShipFix(0, i, TrackStatus.TRACKING, 0.0, 0.0, 1000.0, 1000.0, 180.0, 34.62, 135.02, None,
+                        None, 5.0, 20.0) for i in ids]
+
+    rx = UdpReceiver()
+    try:
+        first = _appliance(tmp_path, rx.port)
+        (out,) = [o for o in first.outputs.outputs if isinstance(o, AsterixOutput)]
+        assert out.site == (34.63, 135.02, 25.0 + 37.4)
+        assert first.persistence is not None
+        first.persistence.restore(first.pipeline, first.outputs)
+        out.publish(fixes(1, 2, 3), 0)
+        used = {out.numbers.number_of(t) for t in (1, 2, 3)}
+        first.persistence.after_step(first.pipeline, first.outputs)
+        first.persistence.keeper.close()  # the writer finishes what was offered; then the "crash"
+        saved = json.loads((tmp_path / "state" / FILE_NAME).read_text())["numbers"]["asterix:0/1"]
+        assert set(saved["in_use"]) == used
+        again = _appliance(tmp_path, rx.port)
+        assert again.persistence is not None
+        again.persistence.restore(again.pipeline, again.outputs)
+        (out2,) = [o for o in again.outputs.outputs if isinstance(o, AsterixOutput)]
+        out2.publish(fixes(1001, 1002, 1003, 1004), 0)
+        after = {out2.numbers.number_of(t) for t in (1001, 1002, 1003, 1004)}
+        assert len(used) == 3 and None not in after and not used & after
+        again.persistence.keeper.close()
+    finally:
+        rx.close(settle_s=0.0)

@@ -101,3 +101,15 @@ def test_calibrate_writes_the_fit_standard_errors(tmp_path: Path) -> None:
         assert got.rotation_sigma_deg == pytest.approx(ref.rotation_sigma_deg, rel=1e-9)
         assert got.focal_sigma_px == pytest.approx(ref.focal_sigma_px, rel=1e-9)
         assert 0.0 < got.rotation_sigma_deg[0] < 0.05 and 0.0 < got.focal_sigma_px < 5.0
+
+
+def test_geoid_separation_round_trips_and_a_bad_one_names_the_key() -> None:
+    base = calibration_to_dict(load_calibration(EXAMPLES[0]))
+    base["site"]["geoid_separation_m"] = 37.4
+    cal = calibration_from_dict(copy.deepcopy(base), "cal.yaml")
+    assert cal.site is not None and cal.site.geoid_separation_m == 37.4
+    assert calibration_to_dict(cal)["site"]["geoid_separation_m"] == 37.4
+    base["site"]["geoid_separation_m"] = 300.0  # no geoid is that far from the ellipsoid
+    with pytest.raises(ConfigError) as err:
+        calibration_from_dict(base, "cal.yaml")
+    assert err.value.key == "site.geoid_separation_m"

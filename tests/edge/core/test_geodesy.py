@@ -98,3 +98,15 @@ def test_agrees_with_proj() -> None:
     east, north, up = pipe.transform(lon, lat, h)
     world = geodetic_to_world(lat, lon, h, AKASHI)  # heading 180: X = -east, Z = -north
     assert world == pytest.approx(np.stack([-east, -up, -north], axis=-1), abs=1e-6)
+
+
+def test_ellipsoidal_height_adds_the_geoid_separation() -> None:
+    """h = H + N where the site gives N (ASTERIX I034/120); without it there is no ellipsoidal height
+    to give, and the bound on what taking H for h can cost is the geoid's largest |N|."""
+    from edge.core.geodesy import GEOID_SEPARATION_BOUND_M, ellipsoidal_height_m
+
+    above = Site(34.63, 135.02, 25.0, 180.0, geoid_separation_m=37.4)
+    below = Site(-8.0, 80.0, 12.0, 0.0, geoid_separation_m=-102.0)
+    assert ellipsoidal_height_m(above) == pytest.approx(62.4)
+    assert ellipsoidal_height_m(below) == pytest.approx(-90.0)
+    assert ellipsoidal_height_m(AKASHI) is None and GEOID_SEPARATION_BOUND_M >= 106.0

@@ -182,3 +182,15 @@ def test_32_tracks_fit_one_block_and_blocks_never_exceed_the_budget() -> None:
     blocks = pack_blocks(10, records)
     assert all(len(b) <= MAX_BLOCK_BYTES for b in blocks)
     assert sum(len(parse(b)) for b in blocks) == 99 and b"".join(b[3:] for b in blocks) == b"".join(records)
+
+
+@pytest.mark.parametrize("status", [TrackStatus.ACQUIRING, TrackStatus.TRACKING])
+def test_a_coasted_fix_is_sent_coasting(status: TrackStatus) -> None:
+    """A fix carried over a pair without a usable position (edge.measure.coast) says so: I010/170 CST 3,
+    with CNF still telling a tentative track from a confirmed one; a measured fix has CST 0."""
+    for coasted in (False, True):
+        record = cat010.target_report(fix(status=status, coasted=coasted), 1, SOURCE)
+        (rec,) = parse(pack_blocks(10, [record])[0])
+        s170 = rec["I170"]
+        assert s170["CST"]["val"] == (3 if coasted else 0)
+        assert s170["CNF"]["val"] == (status is TrackStatus.ACQUIRING) and s170["TRE"]["val"] == 0
