@@ -3,7 +3,8 @@
 #  - as root: Debian packages needed to build systemd-python (libsystemd-dev, pkg-config)
 #    and the real peers the tests talk to (socat for pty pairs, mbpoll as an independent
 #    Modbus client, tshark as an independent ASTERIX decoder; g++ builds asterix-decoder);
-#  - a venv in .venv with the project installed editable, with the test, plots and docs extras.
+#  - a venv in .venv with the project installed editable, with the test, plots and docs extras, and
+#    the compiled kernels (native/, built by meson-python with the C compiler; rebuilt when they change).
 set -euo pipefail
 # `TOOL -h|--help`: the calling tool's header comment (its usage), before anything is installed.
 if [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]]; then
@@ -13,7 +14,7 @@ fi
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 
-APT_PACKAGES=(libsystemd-dev pkg-config socat mbpoll tshark g++)
+APT_PACKAGES=(libsystemd-dev pkg-config gcc python3-dev socat mbpoll tshark g++)
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -68,6 +69,15 @@ if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$want" ]]; then
     .venv/bin/python -m pip install -q --upgrade pip >&2
     .venv/bin/python -m pip install -q -e ".[test,plots,docs]" >&2
     echo "$want" > "$stamp"
+fi
+# the compiled kernels (native/: C, meson-python): a wheel of its own, installed (not editable), so
+# rebuilt here whenever its sources change
+native_stamp=".venv/.mast-stereo-native-installed"
+native_want="$(find native -type f ! -path '*/build/*' | LC_ALL=C sort | xargs sha256sum | sha256sum | cut -d' ' -f1)"
+if [[ ! -f "$native_stamp" || "$(cat "$native_stamp")" != "$native_want" ]]; then
+    echo "setup: building the compiled kernels (native/)" >&2
+    .venv/bin/python -m pip install -q --force-reinstall ./native >&2
+    echo "$native_want" > "$native_stamp"
 fi
 # The lab package (evaluation, benchmarks, fault injection, fake devices) is not in the wheel: a .pth
 # puts the checkout's root on the venv's path so tests, tools and their child processes import it.

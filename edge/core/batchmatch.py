@@ -32,11 +32,15 @@ import cv2
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
+from edge.core import native
 from edge.core.batchsubpix import gauss6_q8_batch, parabola3_q8
 from edge.core.costs import COSTS
+from edge.core.fixedpoint import SUBPIX_BITS, from_q
 from edge.core.match import (
+    NO_BRACKET,
     CostArithmetic,
     Match,
+    _invalid,
     check_images,
     finish_match,
     match_gate,
@@ -48,6 +52,7 @@ from edge.core.match import (
 from edge.core.refpoint import (
     FollowResult,
     FollowSite,
+    _fail,
     finish_follow,
     follow_point,
     follow_site,
@@ -146,6 +151,9 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
     kw: dict[str, Any] = dict(window=window, search_radius=search_radius, subpixel=subpixel,
                               noise_dn=noise_dn, min_ratio=min_ratio, max_sigma_px=max_sigma_px)
     n = len(prevs)
+    kernels = native.kernels
+    if kernels is not None and subpixel == "parabola" and n:
+        return _track_points_native(kernels, prevs, curs, xs, ys, predicted_dxs, predicted_dys, kw)
     out: list[FollowResult | None] = [None] * n
     h, r = window // 2, search_radius
     side = window + 2 * r
@@ -196,6 +204,48 @@ def track_points(prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray], xs: Se
     return out  # type: ignore[return-value]
 
 
+def _floats(values: Sequence[Any]) -> np.ndarray | None:
+    """float64 array of the values (None: one is not a real number; the caller takes the reference)."""
+    try:
+        return np.array(values, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        return None
+
+
+def _track_points_native(kernels: Any, prevs: Sequence[np.ndarray], curs: Sequence[np.ndarray],
+                         xs: Sequence[float], ys: Sequence[float], predicted_dxs: Sequence[float],
+                         predicted_dys: Sequence[float], kw: dict[str, Any]) -> list[FollowResult]:
+    """`track_points` by the compiled follow (native/src/follow.c, bit-identical): points off its
+    fast path (bad images or numbers, borders, too little texture) go to `follow_point`."""
+    n = len(prevs)
+    x, y, pdx, pdy = (_floats(v) for v in (xs, ys, predicted_dxs, predicted_dys))
+    if x is None or y is None or pdx is None or pdy is None or x.shape != (n,):
+        return [follow_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=predicted_dxs[i],
+                             predicted_dy=predicted_dys[i], **kw) for i in range(n)]
+    status = np.empty(n, np.int32)
+    values = np.empty((n, 8))
+    kernels.follow(prevs, curs, x, y, pdx, pdy, kw["window"], kw["search_radius"], float(kw["noise_dn"]),
+                   float(kw["min_ratio"]), float(kw["max_sigma_px"]), status, values)
+    out: list[FollowResult] = []
+    for i, (code, row) in enumerate(zip(status.tolist(), values.tolist(), strict=True)):
+        if code == native.FOLLOW_VALID:
+            out.append(FollowResult(True, row[0], row[1], row[2], row[3], row[4], row[5], row[6], ""))
+            continue
+        if code == native.FOLLOW_REFERENCE:
+            out.append(follow_point(prevs[i], curs[i], xs[i], ys[i], predicted_dx=predicted_dxs[i],
+                                    predicted_dy=predicted_dys[i], **kw))
+            continue
+        xf, yf = float(xs[i]), float(ys[i])
+        if code == native.FOLLOW_EDGE:
+            reason = "minimum on the edge of the search square"
+        elif code == native.FOLLOW_AMBIGUOUS:
+            reason = f"ambiguous: second-best cost only {row[7]:.3f}x the best"
+        else:
+            reason = NO_BRACKET
+        out.append(_fail(reason, xf, yf, row[5], row[6]))
+    return out
+
+
 def _axis_fits(costs: np.ndarray, iy: np.ndarray, ix: np.ndarray, sites: list[FollowSite],
                r: int) -> list[tuple[list, list] | None]:
     """The parabola fits `finish_follow` may need, off each (n, s, s) cost square around its minimum
@@ -238,6 +288,12 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
 
     if cost not in COSTS or subpixel not in subpixel_methods() or window < 3 or window % 2 == 0:
         return [reference(i) for i in range(n)]        # raises ValueError as match_point does
+    kernels = native.kernels
+    if kernels is not None and n:
+        return _match_points_native(kernels, lefts, rights, xs, ys, max_disparities, predicted_disparities,
+                                    reference, window=window, search_radius=search_radius, cost=cost,
+                                    subpixel=subpixel, noise_dn=noise_dn, min_ratio=min_ratio,
+                                    max_sigma_px=max_sigma_px)
     out: list[Match | None] = [None] * n
     h = window // 2
     sites, gathered = [], []
@@ -292,6 +348,71 @@ def match_points(lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray], xs: 
                               ratio=ratio, noise_dn=noise_dn,
                               refined=None if value is None else (value, ""))
     return out  # type: ignore[return-value]
+
+
+_NATIVE_REASONS = {  # refine's reasons for the compiled matcher's failures after the gates
+    native.MATCH_NO_BRACKET: NO_BRACKET,
+    native.MATCH_CANCEL_LR: "half-pixel cancellation pass has no interior minimum",
+    native.MATCH_CANCEL_RL: "right-to-left cancellation pass has no interior minimum",
+}
+
+
+def _match_points_native(kernels: Any, lefts: Sequence[np.ndarray], rights: Sequence[np.ndarray],
+                         xs: Sequence[float], ys: Sequence[float], max_disparities: Sequence[int],
+                         predicted_disparities: Sequence[float | None], reference: Any, *, window: int,
+                         search_radius: int | None, cost: str, subpixel: str, noise_dn: float,
+                         min_ratio: float, max_sigma_px: float) -> list[Match]:
+    """`match_points` by the compiled matcher (native/src/match.c, bit-identical): its gates and
+    sub-pixel step for "none", "parabola" and "cancel6-gauss" (with its fallback to the six passes'
+    parabola fits); `finish_match` refines for the other methods and `reference` takes the points
+    off its fast path."""
+    n = len(lefts)
+    x, y = _floats(xs), _floats(ys)
+    preds = [math.nan if p is None else p for p in predicted_disparities]
+    pred = _floats(preds)
+    try:
+        maxd = np.array([int(d) for d in max_disparities], dtype=np.int64)
+    except (TypeError, ValueError, OverflowError):
+        maxd = None
+    if x is None or y is None or pred is None or maxd is None or x.shape != (n,) or pred.shape != (n,):
+        return [reference(i) for i in range(n)]
+    for i, p in enumerate(predicted_disparities):   # a prediction that is not finite: the reference says so
+        if p is not None and not math.isfinite(pred[i]):
+            x[i] = math.nan
+    status = np.empty(n, np.int32)
+    ints = np.empty((n, 5), np.int64)
+    floats = np.empty((n, 3))
+    kernels.match(lefts, rights, x, y, maxd, pred, window, -1 if search_radius is None else search_radius,
+                  cost == "zssd", native.SUBPIXEL_CODES.get(subpixel, native.SUB_OTHER), float(noise_dn),
+                  float(min_ratio), float(max_sigma_px), status, ints, floats)
+    out: list[Match] = []
+    h = window // 2
+    for i, (code, (value, d0, lo, hi, best), (ratio, sigma, texture)) in enumerate(
+            zip(status.tolist(), ints.tolist(), floats.tolist(), strict=True)):
+        if code == native.MATCH_VALID:
+            out.append(Match(True, from_q(value, SUBPIX_BITS), float(best), sigma, "", value, d0, ratio,
+                             texture, float(xs[i]), float(ys[i])))
+            continue
+        if code == native.MATCH_REFERENCE:
+            out.append(reference(i))
+            continue
+        xf, yf = float(xs[i]), float(ys[i])
+        xi, width = round_half_away(xf), lefts[i].shape[1]
+        if code == native.MATCH_REFINE:                  # gates passed; refine as the reference does
+            arith = CostArithmetic("int", cost)
+            yi = round_half_away(yf)
+            a_band, b_band = lefts[i][yi - h:yi + h + 1], rights[i][yi - h:yi + h + 1]
+            curve = arith.curve(a_band, b_band, xi, lo, hi)
+            out.append(finish_match(arith, a_band, b_band, xf, yf, xi, lo, curve, sigma, texture, width=width,
+                                    subpixel=subpixel, min_ratio=min_ratio, k0=d0 - lo, ratio=ratio,
+                                    noise_dn=noise_dn))
+            continue
+        reason = _NATIVE_REASONS.get(code) or \
+            match_gate(window, xi, lo, hi - lo + 1, d0 - lo, ratio, width=width, subpixel=subpixel,
+                       min_ratio=min_ratio)
+        out.append(_invalid(reason, xf, yf, sigma_px=sigma, texture=texture, disparity_int=d0,
+                            second_ratio=ratio, cost=float(best)))
+    return out
 
 
 def _refine_gauss(searched: list[tuple], h: int, widths: list[int], subpixel: str, cost: str,

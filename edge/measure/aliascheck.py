@@ -70,14 +70,17 @@ class AliasCheck:
 
     def __init__(self) -> None:
         self.deltas: deque[float] = deque(maxlen=HISTORY)
+        self._sigma: float | None = None  # sigma_px() of the deltas as they are (None: not computed)
 
     def clear(self) -> None:
         self.deltas.clear()
+        self._sigma = None
 
     def add(self, main: Match, check: Match) -> None:
         """One pair's two matches of the same point (ignored unless both are valid)."""
         if main.valid and check.valid:
             self.deltas.append(main.disparity_px - check.disparity_px)
+            self._sigma = None
 
     def rms_px(self) -> float | None:
         if len(self.deltas) < MIN_SAMPLES:
@@ -89,8 +92,10 @@ class AliasCheck:
         return persistent_px(self.deltas)
 
     def sigma_px(self) -> float:
-        """The additive disparity sigma (px) for aliasing bias: 0 while the windows agree."""
-        persistent = self.persistent_px()
-        if persistent is None or persistent <= DEADZONE_PX:
-            return 0.0
-        return min(MAX_SIGMA_PX, GAIN * persistent)
+        """The additive disparity sigma (px) for aliasing bias: 0 while the windows agree. Computed
+        once per new sample: the fixes and the depth check ask for it every pair."""
+        if self._sigma is None:
+            persistent = self.persistent_px()
+            self._sigma = 0.0 if persistent is None or persistent <= DEADZONE_PX else \
+                min(MAX_SIGMA_PX, GAIN * persistent)
+        return self._sigma

@@ -22,10 +22,11 @@ import math
 from collections import defaultdict
 from collections.abc import Generator, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
+from edge.core import native
 from edge.core.batchmatch import match_points, track_points
 from edge.core.match import Match, match_point
 from edge.core.prefilter import NOISE_GAIN
@@ -38,7 +39,7 @@ from edge.measure.settings import PointSettings
 # the batched match only from about three points on (its fixed cost: the batched products and the
 # vectorised Gaussian fits cost more than one point's own). Tracks with a window of their own
 # (edge.measure.anchor.ship_window) form small groups: tools/bench's 8-ship scene has groups of 1, 3 and 4
-BATCH_MIN = {"Follow": 1, "StereoMatch": 3}
+BATCH_MIN = {"Follow": 1, "StereoMatch": 3}  # NumPy only: the compiled kernels (edge.core.native) take any
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,6 +94,8 @@ class StereoMatch:
     max_disparity: int
     predicted: float | None
     settings: MatchSettings
+    x0: int = 0  # the patches' origin in the rectified image (`stereo_request`; reused by `near`)
+    y0: int = 0
 
     def run(self) -> Match:
         s, pred = self.settings, self.predicted
@@ -103,8 +106,19 @@ class StereoMatch:
                            noise_dn=s.noise_dn, max_sigma_px=s.max_sigma_px)
 
 
-Request = Follow | StereoMatch
-Steps = Generator[Request, FollowResult | Match, bool]
+@dataclass(frozen=True, slots=True)
+class Checks:
+    """Several matches that depend on none of each other's answers (a track's cross-checks of its
+    main match), asked in one round and answered with a list of Match in their order."""
+
+    requests: tuple[StereoMatch, ...]
+
+    def run(self) -> list[Match]:
+        return [r.run() for r in self.requests]
+
+
+Request = Follow | StereoMatch | Checks
+Steps = Generator[Request, FollowResult | Match | list[Match], bool]
 
 
 def follow_settings(s: PointSettings, max_sigma_px: float) -> FollowSettings:
@@ -119,19 +133,31 @@ def match_settings(s: PointSettings) -> MatchSettings:
 
 
 def stereo_request(s: PointSettings, left: np.ndarray, right: np.ndarray, rect: Rectifier, u: float,
-                   v: float, pred: float | None, settings: MatchSettings) -> StereoMatch:
+                   v: float, pred: float | None, settings: MatchSettings,
+                   within: StereoMatch | None = None) -> StereoMatch:
     """The match of rectified left point (u, v): patches of the rows the window covers and the columns
     the search needs (narrowed to the prediction when there is one); `settings` is `match_settings(s)`,
-    which a track keeps."""
+    which a track keeps. `within`: a request of this pair whose patches may hold these (no
+    prefilter); then they are cut from them (a patch is the same pixels however it was fetched), not
+    rectified again (the alias and depth checks' windows lie inside the main match's)."""
     h = s.window // 2
     ui, vi = int(round(u)), int(round(v))
     d_hi = s.max_disparity
     if pred is not None:
         d_hi = max(4, min(d_hi, int(math.ceil(pred)) + s.search_radius_px + 1))
     x0, width = ui - h - d_hi - 4, 2 * h + d_hi + 9
+    y0 = vi - h
+    if within is not None and s.prefilter == "none" and within.x0 <= x0 \
+            and x0 + width <= within.x0 + within.left.shape[1] \
+            and within.y0 <= y0 and y0 + 2 * h + 1 <= within.y0 + within.left.shape[0]:
+        # inside the patches of `within` (the same images): the same pixels, no remap
+        cols = slice(x0 - within.x0, x0 - within.x0 + width)
+        rows = slice(y0 - within.y0, y0 - within.y0 + 2 * h + 1)
+        return StereoMatch(within.left[rows, cols], within.right[rows, cols], u - x0, v - y0, d_hi, pred,
+                           settings, x0, y0)
     get = rect.xsobel_patch if s.prefilter == "xsobel" else rect.patch
-    lp, rp = get(left, 0, x0, vi - h, width, 2 * h + 1), get(right, 1, x0, vi - h, width, 2 * h + 1)
-    return StereoMatch(lp, rp, u - x0, v - (vi - h), d_hi, pred, settings)
+    lp, rp = get(left, 0, x0, y0, width, 2 * h + 1), get(right, 1, x0, y0, width, 2 * h + 1)
+    return StereoMatch(lp, rp, u - x0, v - y0, d_hi, pred, settings, x0, y0)
 
 
 def run_one(steps: Steps) -> bool:
@@ -144,7 +170,7 @@ def run_one(steps: Steps) -> bool:
         return bool(done.value)
 
 
-def answer_all(requests: Sequence[Request]) -> list[FollowResult | Match]:
+def answer_all(requests: Sequence[Follow | StereoMatch]) -> list[FollowResult | Match]:
     """The answers to many requests, the core's searches batched per kind and settings."""
     out: list[FollowResult | Match | None] = [None] * len(requests)
     groups: dict[tuple, list[int]] = defaultdict(list)
@@ -152,7 +178,7 @@ def answer_all(requests: Sequence[Request]) -> list[FollowResult | Match]:
         groups[(type(r), r.settings)].append(i)
     for (kind, s), idx in groups.items():
         rs: list[Any] = [requests[i] for i in idx]  # all Follow or all StereoMatch, as `kind` says
-        if len(rs) < BATCH_MIN[kind.__name__]:        # too few to repay the batch's fixed cost
+        if len(rs) < BATCH_MIN[kind.__name__] and native.kernels is None:  # too few to repay the batch
             answers = [r.run() for r in rs]
         elif kind is Follow:
             answers = track_points([r.prev for r in rs], [r.cur for r in rs], [r.x for r in rs],
@@ -176,7 +202,7 @@ def step_points(all_steps: Sequence[Steps]) -> list[bool]:
     results: list[bool] = [False] * len(all_steps)
     pending: dict[int, Request] = {}
 
-    def advance(i: int, answer: FollowResult | Match | None) -> None:
+    def advance(i: int, answer: FollowResult | Match | list[Match] | None) -> None:
         try:
             pending[i] = next(all_steps[i]) if answer is None else all_steps[i].send(answer)
         except StopIteration as done:
@@ -186,11 +212,21 @@ def step_points(all_steps: Sequence[Steps]) -> list[bool]:
         advance(i, None)
     while pending:
         order = sorted(pending)
-        answers = answer_all([pending.pop(i) for i in order])
-        for i, answer in zip(order, answers, strict=True):
-            advance(i, answer)
+        asked = [pending.pop(i) for i in order]
+        flat: list[Follow | StereoMatch] = []
+        for r in asked:  # a Checks' matches join the round's others
+            if isinstance(r, Checks):
+                flat.extend(r.requests)
+            else:
+                flat.append(r)
+        answers = iter(answer_all(flat))
+        for i, r in zip(order, asked, strict=True):
+            if isinstance(r, Checks):
+                advance(i, [cast(Match, next(answers)) for _ in r.requests])
+            else:
+                advance(i, next(answers))
     return results
 
 
-__all__ = ["Follow", "StereoMatch", "answer_all", "follow_settings", "match_settings", "run_one",
+__all__ = ["Checks", "Follow", "StereoMatch", "answer_all", "follow_settings", "match_settings", "run_one",
            "step_points", "stereo_request"]

@@ -53,17 +53,23 @@ class DepthCheck:
 
     def __init__(self) -> None:
         self.deltas: tuple[deque[float], ...] = tuple(deque(maxlen=HISTORY) for _ in OFFSETS)
+        self._sigma: float | None = None  # sigma_px() of the deltas as they are (None: not computed)
 
     def clear(self) -> None:
         for d in self.deltas:
             d.clear()
+        self._sigma = None
 
     def add(self, k: int, main: Match, sub: Match) -> None:
         """Sub-window k's match of this pair against the main one (ignored unless both are valid)."""
         if main.valid and sub.valid:
             self.deltas[k].append(sub.disparity_px - main.disparity_px)
+            self._sigma = None
 
     def sigma_px(self) -> float:
-        """The additive disparity sigma (px) for the depth the window spans: 0 while they agree."""
-        p = [persistent_px(d) or 0.0 for d in self.deltas]
-        return min(MAX_SIGMA_PX, GAIN * math.sqrt(sum(x * x for x in p) / len(p)))
+        """The additive disparity sigma (px) for the depth the window spans: 0 while they agree.
+        Computed once per new sample (the fixes ask for it every pair; it changes every 5th)."""
+        if self._sigma is None:
+            p = [persistent_px(d) or 0.0 for d in self.deltas]
+            self._sigma = min(MAX_SIGMA_PX, GAIN * math.sqrt(sum(x * x for x in p) / len(p)))
+        return self._sigma

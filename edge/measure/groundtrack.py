@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from edge.core import native
 from edge.core.geo import KNOT_MPS
 
 QUIET_Q = 2e-4  # m^2/s^3: a ship holding course and speed (helm, swell: velocity wanders ~11 cm/s a minute)
@@ -70,9 +71,12 @@ class GroundSettings:
 def measurement_cov(bearing_rad: float, sigma_along_m: float, sigma_across_m: float) -> np.ndarray:
     """2x2 east/north covariance of a fix: sigma_along on the line of sight at `bearing_rad`
     (true, from north toward east), sigma_across perpendicular to it."""
-    u = np.array([math.sin(bearing_rad), math.cos(bearing_rad)])  # unit line of sight (east, north)
-    w = np.array([u[1], -u[0]])
-    return sigma_along_m**2 * np.outer(u, u) + sigma_across_m**2 * np.outer(w, w)
+    u0, u1 = math.sin(bearing_rad), math.cos(bearing_rad)  # unit line of sight (east, north)
+    w0, w1 = u1, -u0
+    a, b = sigma_along_m**2, sigma_across_m**2
+    # a u u^T + b w w^T entry by entry in Python floats: the same IEEE operations as np.outer, faster
+    return np.array([[a * (u0 * u0) + b * (w0 * w0), a * (u0 * u1) + b * (w0 * w1)],
+                     [a * (u1 * u0) + b * (w1 * w0), a * (u1 * u1) + b * (w1 * w1)]])
 
 
 def _transition(dt_s: float) -> np.ndarray:
@@ -104,6 +108,9 @@ class GroundTrack:
         self.s = settings or GroundSettings()
         self.qs = (self.s.quiet_q, self.s.manoeuvre_q)
         self.t_s: float | None = None
+        self._state: tuple[np.ndarray, np.ndarray] | None = None  # state() until the filter changes
+        self._speed: tuple[float, float, float, float] | None = None  # speed_course() of ...
+        self._speed_for: tuple[np.ndarray, np.ndarray] | None = None  # ... this state
         self.x = np.zeros((2, 4))  # per model
         self.p = np.zeros((2, 4, 4))
         self.mu = np.array([0.5, 0.5])
@@ -114,14 +121,32 @@ class GroundTrack:
         self.last_nis = math.nan
 
     # ------------------------------------------------------------ estimate
+    @property
+    def mu(self) -> np.ndarray:
+        """The models' probabilities (setting them, as every step of the filter does, renews `state`)."""
+        return self._mu
+
+    @mu.setter
+    def mu(self, value: np.ndarray) -> None:
+        self._mu, self._state = value, None
+
     def state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Combined (x, P) of the models (the IMM's output)."""
-        x = self.mu @ self.x
-        p = np.zeros((4, 4))
-        for j in range(2):
-            d = self.x[j] - x
-            p += self.mu[j] * (self.p[j] + np.outer(d, d))
-        return x, p
+        """Combined (x, P) of the models (the IMM's output). Computed once per step of the filter: the
+        fix, its speed and course, the reporting latch and CPA all ask for it (callers get copies)."""
+        kernels = native.kernels
+        if self._state is None and kernels is not None:
+            xs, ps = np.empty(4), np.empty((4, 4))
+            kernels.imm_state(self.x, self.p, self._mu, xs, ps)
+            self._state = (xs, ps)
+        elif self._state is None:
+            x = self.mu @ self.x
+            p = np.zeros((4, 4))
+            for j in range(2):
+                d = self.x[j] - x
+                p += self.mu[j] * (self.p[j] + np.outer(d, d))
+            self._state = (x, p)
+        x, p = self._state
+        return x.copy(), p.copy()
 
     def velocity(self) -> tuple[np.ndarray, np.ndarray] | None:
         """(east, north) velocity m/s and its 2x2 covariance; None before the first measurement."""
@@ -132,7 +157,15 @@ class GroundTrack:
 
     def speed_course(self) -> tuple[float, float, float, float] | None:
         """(speed m/s, its 1-sigma, course rad from north toward east, its 1-sigma rad) to first order;
-        the course's sigma is inf below MIN_SPEED_FOR_COURSE_MPS. None before the first measurement."""
+        the course's sigma is inf below MIN_SPEED_FOR_COURSE_MPS. None before the first measurement.
+        Computed once per step of the filter (the latch and the fix both ask)."""
+        if self._state is not None and self._speed_for is self._state:
+            return self._speed
+        self._speed = self._speed_course()
+        self._speed_for = self._state
+        return self._speed
+
+    def _speed_course(self) -> tuple[float, float, float, float] | None:
         vel = self.velocity()
         if vel is None:
             return None
@@ -183,6 +216,13 @@ class GroundTrack:
                 return True
             return False
         self.outliers = 0
+        kernels = native.kernels
+        if kernels is not None:  # the same model updates compiled (native/src/imm.c)
+            kernels.imm_correct(self.x, self.p, self._mu, float(z[0]), float(z[1]),
+                                np.ascontiguousarray(r, dtype=np.float64))
+            self._state = None
+            self.measurements += 1
+            return True
         likelihood = np.zeros(2)
         for j in range(2):
             yj = z - self.x[j, :2]
@@ -196,6 +236,7 @@ class GroundTrack:
             nj = float(yj @ s_inv @ yj)
             likelihood[j] = math.exp(-0.5 * nj) / (2.0 * math.pi * math.sqrt(max(det, 1e-300)))
         post = likelihood * self.mu
+        self._state = None  # the models' x and P changed above
         if post.sum() > 0 and np.all(np.isfinite(post)):
             self.mu = post / post.sum()
         self.measurements += 1
@@ -228,11 +269,18 @@ class GroundTrack:
             self.p[j] = 0.0
             self.p[j, :2, :2] = r
             self.p[j, 2:, 2:] = pv
+        self._state = None
         self.outliers = 0
 
     def _predict(self, dt_s: float) -> None:
         """The IMM's mixing (Markov chain of mean stays QUIET_STAY_S / MANOEUVRE_STAY_S) and each
         model's CV prediction."""
+        kernels = native.kernels
+        if kernels is not None:  # the same mixing and prediction compiled (native/src/imm.c)
+            kernels.imm_predict(self.x, self.p, self._mu, float(dt_s), float(self.qs[0]), float(self.qs[1]),
+                                QUIET_STAY_S, MANOEUVRE_STAY_S)
+            self._state = None
+            return
         p01 = 1.0 - math.exp(-dt_s / QUIET_STAY_S)
         p10 = 1.0 - math.exp(-dt_s / MANOEUVRE_STAY_S)
         trans = np.array([[1.0 - p01, p01], [p10, 1.0 - p10]])
@@ -266,14 +314,25 @@ class PairFix:
 def column_noise_px(columns: list[tuple[float, float]], floor_px: float = COLUMN_NOISE_PX) -> float:
     """RMS residual of (time or frame, column) samples about their least-squares line (>= floor_px;
     the floor alone with fewer than 5 samples)."""
-    if len(columns) < 5:
+    n = len(columns)
+    if n < 5:
         return floor_px
-    t = np.array([c[0] for c in columns], float)
-    u = np.array([c[1] for c in columns], float)
-    a = np.vstack([t - t[-1], np.ones_like(t)]).T
-    coef, *_ = np.linalg.lstsq(a, u, rcond=None)
-    res = u - a @ coef
-    return max(floor_px, float(math.sqrt(res @ res / (len(u) - 2))))
+    # the least-squares line about the mean time, its residuals summed in Python floats (np.linalg.lstsq
+    # took 20-40 us a call for these few samples; the two agree to ~1e-15 of the columns,
+    # tests/edge/measure/test_groundtrack.py)
+    ts, us = zip(*columns, strict=True)
+    t_mean, u_mean = sum(ts) / n, sum(us) / n
+    stt = stu = 0.0
+    for t, u in columns:
+        dt = t - t_mean
+        stt += dt * dt
+        stu += dt * (u - u_mean)
+    slope = stu / stt if stt > 0 else 0.0
+    rss = 0.0
+    for t, u in columns:
+        e = u - u_mean - slope * (t - t_mean)
+        rss += e * e
+    return max(floor_px, math.sqrt(rss / (n - 2)))
 
 
 def pair_fix(east_m: float, north_m: float, sigma_d_px: float, sigma_u_px: float, focal_px: float,
@@ -294,6 +353,7 @@ class _Entry:
     sog_shown: bool = False  # the reporting latch (`GroundTracks._latch`)
     cog_shown: bool = False
     centres: deque[tuple[float, float]] = field(default_factory=deque)  # (t s, detected box centre px)
+    centres_noise_px: float | None = None  # column_noise_px of `centres` as they are (None: not computed)
     offset_px: float | None = None  # the box centre's last known offset from the followed point
 
 
@@ -309,7 +369,7 @@ class GroundTracks:
         point moved on the hull, its disparity filter's update count). Tracks not given are gone."""
         self._by_id = {i: e for i, e in self._by_id.items() if i in fixes}
         for track_id, (fix, jumped, updates) in fixes.items():
-            entry = self._by_id.setdefault(track_id, _Entry(GroundTrack(self.s)))
+            entry = self._entry(track_id)
             restarted = updates < entry.updates
             entry.updates = updates
             if fix is None:
@@ -318,6 +378,13 @@ class GroundTracks:
                 reseat = (jumped or restarted) and entry.track.started
                 entry.track.update(t_s, fix.en_m, fix.cov, reseat=reseat)
             self._latch(entry)
+
+    def _entry(self, track_id: int) -> _Entry:
+        """The track's entry, made at its first pair."""
+        entry = self._by_id.get(track_id)
+        if entry is None:
+            entry = self._by_id[track_id] = _Entry(GroundTrack(self.s))
+        return entry
 
     def _latch(self, entry: _Entry) -> None:
         """Reporting with hysteresis: SOG (COG) is first shown when its sigma meets its bound, and
@@ -351,17 +418,21 @@ class GroundTracks:
         point's own scatter: over a few seconds the slide is a few hundredths of a pixel. The switch
         steps the column by about the box's scatter, which the sigma then allows. `detected`: the
         centre is this pair's detection box; `jumped`: the point moved to another part of the hull."""
-        entry = self._by_id.setdefault(track_id, _Entry(GroundTrack(self.s)))
+        entry = self._entry(track_id)
         if jumped:
             entry.centres.clear()
-            entry.offset_px = None
+            entry.offset_px = entry.centres_noise_px = None
         if detected:
             entry.centres.append((t_s, centre_px))
+            entry.centres_noise_px = None
         while entry.centres and entry.centres[0][0] < t_s - BOX_FIT_S:
             entry.centres.popleft()
+            entry.centres_noise_px = None
         if len(entry.centres) >= BOX_MIN_SAMPLES:
             entry.offset_px = centre_px - point_px
-            return centre_px, max(BOX_CENTRE_FLOOR_PX, column_noise_px(list(entry.centres), floor_px=0.0))
+            if entry.centres_noise_px is None:  # the centres change on detection pairs only
+                entry.centres_noise_px = column_noise_px(list(entry.centres), floor_px=0.0)
+            return centre_px, max(BOX_CENTRE_FLOOR_PX, entry.centres_noise_px)
         if entry.offset_px is None:
             entry.offset_px = centre_px - point_px
         return point_px + entry.offset_px, point_noise_px

@@ -43,7 +43,9 @@ from edge.core.refpoint import FollowResult
 from edge.core.shipmotion import MAX_SHIP_ACCEL_MPS2, MAX_SHIP_SPEED_MPS
 from edge.measure.aliascheck import AliasCheck, check_window
 from edge.measure.batch import (
+    Checks,
     Follow,
+    MatchSettings,
     Request,
     Steps,
     StereoMatch,
@@ -88,6 +90,7 @@ class TrackPoint(PointFilter):
         self.u, self.v = u, v
         self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)  # the core requests' knobs, kept
         self.match_settings = match_settings(self.s)
+        self._near_settings: dict[int, tuple[PointSettings, MatchSettings]] = {}  # _near_request's by window
         self.template: np.ndarray | None = None  # window around template_at in the last image
         self.template_at = (0, 0, 0.0, 0.0)  # its patch origin, and the point (u, v) then
         self.template_reach = 0.0  # px the point may move before the patch is too small
@@ -139,6 +142,7 @@ class TrackPoint(PointFilter):
         self.s = replace(self.s, window=window)
         self.follow_settings = follow_settings(self.s, FOLLOW_MAX_SIGMA_PX)
         self.match_settings = match_settings(self.s)
+        self._near_settings = {}
         self.match_costs.clear()  # costs scale with the window's area
         self.alias.clear()  # and the check's window changes with it
         self.depth.clear()
@@ -186,6 +190,7 @@ class TrackPoint(PointFilter):
                     assert self.last_left is not None  # a template is taken only after a measured pair
                     self._take_template(self.last_left, rect)  # moved too far for the kept patch
                 found, origin = (yield self._follow(left, rect, pu)), self.template_at[:2]
+                assert isinstance(found, FollowResult)  # the answer to a Follow
                 if not found.valid and hint is not None and abs(hint - own) > FOLLOW_GATE_PX:
                     guided = self._guided_follow(left, rect, hint)  # the motion changed: where the box went
             if guided is not None:
@@ -328,7 +333,7 @@ class TrackPoint(PointFilter):
         self.follow_costs.clear()
 
     def _measure(self, left: np.ndarray, right: np.ndarray, rect: Rectifier
-                 ) -> Generator[Request, FollowResult | Match, None]:
+                 ) -> Generator[Request, FollowResult | Match | list[Match], None]:
         self.last_left, self.last_left_frame = left, self.frame
         # keep following the same template for a while: re-taking it every pair would add each
         # pair's sub-pixel follow error to the point (a random walk, and a drift where the window
@@ -343,15 +348,20 @@ class TrackPoint(PointFilter):
         m = yield self._last_request
         assert isinstance(m, Match)  # the answer to a StereoMatch
         self.match = m
-        if self.s.alias_check and m.valid:
-            check = yield self._near_request(m, left, right, rect, check_window(self.s.window))
-            assert isinstance(check, Match)  # the answer to a StereoMatch
-            self.alias.add(m, check)
-        if self.s.depth_check and m.valid and self.frame % depth_every(self.s.fps) == 0:
-            for k, (du, dv) in enumerate(OFFSETS):
-                sub = yield self._near_request(m, left, right, rect, SUB_WINDOW, du, dv)
-                assert isinstance(sub, Match)
-                self.depth.add(k, m, sub)
+        # the cross-checks of a valid match, asked together (each depends on the main match alone)
+        alias = self.s.alias_check and m.valid
+        depth = self.s.depth_check and m.valid and self.frame % depth_every(self.s.fps) == 0
+        if alias or depth:
+            near = [self._near_request(m, left, right, rect, check_window(self.s.window))] if alias else []
+            if depth:
+                near += [self._near_request(m, left, right, rect, SUB_WINDOW, du, dv) for du, dv in OFFSETS]
+            checks = yield Checks(tuple(near))
+            assert isinstance(checks, list)  # the answer to Checks
+            if alias:
+                self.alias.add(m, checks[0])
+            if depth:
+                for k, sub in enumerate(checks[1:] if alias else checks):
+                    self.depth.add(k, m, sub)
         clean = m.valid and not self._mixed(m.cost)
         self._filter(m.disparity_px if clean else None)
         if not self.accepted and self.kalman is not None and self.kalman.running:
@@ -372,9 +382,13 @@ class TrackPoint(PointFilter):
         """A cross-check of the main match: the point moved by (du, dv) px, matched with another
         window, searched +-2 px around the main match (the alias check's smaller window,
         edge.measure.aliascheck; the depth check's sub-windows, edge.measure.depthcheck)."""
-        settings = replace(self.match_settings, window=window, search_radius=2)
-        return stereo_request(replace(self.s, window=window), left, right, rect, self.u + du, self.v + dv,
-                              m.disparity_px, settings)
+        near = self._near_settings.get(window)
+        if near is None:  # the track's settings with that window, made once (dataclass replace is slow)
+            near = (replace(self.s, window=window),
+                    replace(self.match_settings, window=window, search_radius=2))
+            self._near_settings[window] = near
+        return stereo_request(near[0], left, right, rect, self.u + du, self.v + dv, m.disparity_px, near[1],
+                              self._last_request)
 
     def _mixed(self, cost: float) -> bool:
         """A match much worse than this track's typical one: the window holds two objects at

@@ -26,6 +26,7 @@ from edge.measure.groundtrack import (
     PairFix,
     _process,
     _transition,
+    column_noise_px,
     measurement_cov,
     pair_fix,
 )
@@ -305,3 +306,21 @@ def test_the_column_is_the_box_centre_once_detections_give_its_scatter(
     for k in range(30):
         _, e = exact.column(2, float(k), 3.0 * k, 0.05, 5.0 * k, True, False)
     assert e == BOX_CENTRE_FLOOR_PX
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(5, 40), st.floats(-2000.0, 2000.0), st.floats(-50.0, 50.0), st.floats(0.0, 3.0),
+       st.integers(0, 2**31))
+def test_column_noise_is_the_least_squares_residual(n: int, u0: float, rate: float, noise: float,
+                                                    seed: int) -> None:
+    """The closed-form line (about the mean time) against NumPy's least squares: the RMS residual to
+    ~1e-15 of the columns' scale (the difference is the summation order, nothing a fix can see)."""
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.choice([0.1, 0.1, 0.2, 1.0], n))
+    u = u0 + rate * t + rng.normal(0.0, noise, n)
+    a = np.vstack([t - t[-1], np.ones_like(t)]).T
+    coef, *_ = np.linalg.lstsq(a, u, rcond=None)
+    res = u - a @ coef
+    want = max(0.0, float(np.sqrt(res @ res / (n - 2))))
+    got = column_noise_px(list(zip(t.tolist(), u.tolist(), strict=True)), floor_px=0.0)
+    assert abs(got - want) <= 1e-9 * max(1.0, abs(u0) + abs(rate) * float(t[-1]))
