@@ -116,6 +116,7 @@ class Pipeline:
         self.ground = GroundTracks(GroundSettings(max_sog_sigma_kn=cfg.max_sog_sigma_kn,
                                                   max_cog_sigma_deg=cfg.max_cog_sigma_deg))
         self.counters = Counters()
+        self.last_detections: tuple[tuple[int, int, int, int], ...] = ()  # raw left boxes kept (the page)
         self._last_t_ns: int | None = None
         self._last_measured: dict[int, ShipFix] = {}  # track id -> its last measured fix (for coasting)
         self._since_detect = cfg.detect_every - 1  # detect on the first pair
@@ -175,6 +176,7 @@ class Pipeline:
                 kept = [b for b in blobs if waterline_open(self.search_mask, b.x0, b.x1, b.y1)]
                 self.counters.masked += len(blobs) - len(kept)
                 blobs = kept
+            self.last_detections = tuple((int(b.x0), int(b.y0), int(b.x1), int(b.y1)) for b in blobs)
             boxes = self._rect_boxes([(b.x0, b.y0, b.x1, b.y1) for b in blobs])
             # a blob the detector calls weak (`weak` true) waits until it persists (edge.measure.candidates)
             weak = [bool(getattr(b, "weak", False)) for b in blobs]

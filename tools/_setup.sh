@@ -2,7 +2,8 @@
 # idempotently, and quickly when everything is already there.
 #  - as root: Debian packages needed to build systemd-python (libsystemd-dev, pkg-config)
 #    and the real peers the tests talk to (socat for pty pairs, mbpoll as an independent
-#    Modbus client, tshark as an independent ASTERIX decoder; g++ builds asterix-decoder);
+#    Modbus client, tshark as an independent ASTERIX decoder; g++ builds asterix-decoder;
+#    chromium, headless, opens the maintenance page; gcc and python3-dev build the compiled kernels);
 #  - a venv in .venv with the project installed editable, with the test, plots and docs extras, and
 #    the compiled kernels (native/, built by meson-python with the C compiler; rebuilt when they change).
 set -euo pipefail
@@ -14,7 +15,7 @@ fi
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 
-APT_PACKAGES=(libsystemd-dev pkg-config gcc python3-dev socat mbpoll tshark g++)
+APT_PACKAGES=(libsystemd-dev pkg-config gcc python3-dev socat mbpoll tshark g++ chromium)
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

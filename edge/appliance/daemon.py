@@ -39,6 +39,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from drivers.camera.base import FramePair, FramePairSource
 from drivers.clock import Clock, SystemClock
@@ -52,10 +53,12 @@ from edge.appliance.journal import MESSAGE_IDS, FaultLog
 from edge.appliance.panel import build_leds
 from edge.appliance.sources import SourcePlan, plan_source
 from edge.appliance.state import Persistence
+from edge.appliance.timing import StageTimes
 from edge.chain import Chain
 from edge.config.app import AppConfig, load_config
 from edge.config.asterix import check_asterix
 from edge.config.masks import build_search_mask
+from edge.config.page import check_page
 from edge.config.trust import check_config_files
 from edge.errors import ConfigError
 from edge.fix import ShipFix, TrackStatus
@@ -64,6 +67,9 @@ from edge.outputs.fanout import Outputs, output_stages
 from edge.outputs.nmea_stream import NmeaStreamOutput
 from edge.pipeline import Pipeline
 from edge.recording.live import LiveRecorder, recording_stage
+
+if TYPE_CHECKING:
+    from edge.appliance.page.page import Page
 
 log = logging.getLogger(__name__)
 
@@ -130,6 +136,9 @@ class Appliance:
         self._step_lock = threading.Lock()  # held by one step + publish; a reload swaps between steps
         self._capture_thread: threading.Thread | None = None
         self._capture_stop = threading.Event()
+        self.timing = StageTimes()  # per-stage latency histograms (/metrics)
+        self.page_token: str | None = None  # checked by build (exit 78 off loopback without one)
+        self.page: Page | None = None  # the maintenance page (page.enabled), started by run
 
     @property
     def pipeline(self) -> Pipeline:
@@ -149,10 +158,12 @@ class Appliance:
         health = _health(config, plan, bool(extra_nmea), recording=record is not None)
         chain = Chain.from_config(config, cls._pipeline(config, plan))  # nothing opened yet
         outputs = cls._outputs(config, plan, health, chain.alerts, extra_nmea)
+        token = check_page(config.page, config_file)  # before anything opens: exit 78 naming the key
         recorder = None if record is None else \
             LiveRecorder(record, plan.calibration, plan.fps, plan.description)
-        return cls(config, config_file, plan, chain, outputs, health, notifier, on_fixes, extra_nmea,
-                   recorder)
+        app = cls(config, config_file, plan, chain, outputs, health, notifier, on_fixes, extra_nmea, recorder)
+        app.page_token = token
+        return app
 
     @staticmethod
     def _pipeline(config: AppConfig, plan: SourcePlan) -> Pipeline:
@@ -232,13 +243,20 @@ class Appliance:
         elif pair.realtime_offset_ns is not None:  # UTC of a live pair: the wall clock at its exposure
             self.pipeline.utc_offset_ns = pair.realtime_offset_ns
         utc_ns = pair.t_ns + self.pipeline.utc_offset_ns
+        start_ns = time.monotonic_ns()
         fixes = self.chain.step(pair, utc_ns, self.health)  # the one chain: pipeline, AIS, alerts
+        chain_ns = time.monotonic_ns()
         self.live_fixes, self.last_fixes = len(fixes), fixes
         latency_s = (time.monotonic_ns() - captured_ns) / 1e9  # capture to outputs
         self.health.beat("processing", frames=1, latency_s=latency_s,
                          counters={"dropped_pairs": self.queue.dropped,
                                    "failed_pairs": self.pipeline.counters.failed})
         self.outputs.publish(fixes, utc_ns)
+        done_ns = time.monotonic_ns()
+        self.timing.observe({"queue": (start_ns - captured_ns) / 1e9, "chain": (chain_ns - start_ns) / 1e9,
+                             "outputs": (done_ns - chain_ns) / 1e9, "total": (done_ns - captured_ns) / 1e9})
+        if self.page is not None:  # a reference handed over when the page's encoder wants a picture
+            self.page.offer(pair, fixes, utc_ns)
         if self.recorder is not None:
             self.recorder.offer(pair)
             self.recorder.beat(self.health)
@@ -271,6 +289,7 @@ class Appliance:
             self.persistence.restore(self.pipeline, self.outputs)
         self.outputs.start()
         self.chain.start(time.time_ns())
+        self._start_page()
         self._start_capture()
         processing = threading.Thread(target=self._process, args=(stop,), name="processing", daemon=True)
         processing.start()
@@ -300,6 +319,7 @@ class Appliance:
             self.notifier.stopping("stopping")
             self._stop_capture()
             processing.join(timeout=JOIN_S)
+            self._stop_page()
             self._send_lost()
             self.outputs.close()
             self.chain.close()
@@ -310,6 +330,20 @@ class Appliance:
             if self.leds is not None:
                 self.leds.close()  # steady red: not running
         return 0
+
+    def _start_page(self) -> None:
+        """The maintenance page's threads (page.enabled); imported only then (docs/page.md)."""
+        if not self.config.page.enabled:
+            return
+        from edge.appliance.page.page import Page
+
+        self.page = Page(self, self.config.page, self.page_token)
+        self.page.start()
+
+    def _stop_page(self) -> None:
+        if self.page is not None:
+            self.page.close()
+            self.page = None
 
     def _wait(self, stop: threading.Event, period_s: float) -> None:
         """Sleep until the next status tick, driving the LEDs' blink edges meanwhile: the daemon's
@@ -384,6 +418,7 @@ class Appliance:
                 if config.alerts.enabled:
                     alerts = AlertManager(config.alerts, config.pipeline.max_tracks)
             outputs = self._outputs(config, plan, health, alerts, self.extra_nmea) if changed else None
+            token = check_page(config.page, self.config_file)
         except ConfigError as exc:
             self.reload_error = str(exc)
             log.error("reload refused, running on the previous configuration: %s", exc,
@@ -398,6 +433,8 @@ class Appliance:
             if cameras_changed or (old.calibration, old.site, old.pipeline, old.masks) != \
                     (config.calibration, config.site, config.pipeline, config.masks):
                 self.chain.pipeline, self.steps, self.last_fixes = self._pipeline(config, plan), 0, []
+                if self.page is not None:
+                    self.page.pipeline_changed()
             if config.ais != old.ais:
                 self.chain.close()
                 self.chain.ais = Chain.build_ais(config.ais, self.pipeline)
@@ -413,6 +450,10 @@ class Appliance:
                     self.leds.close()
                 self.leds = build_leds(config.health.leds)
             self.config, self.plan, self.reload_error = config, plan, None
+            self.page_token = token
+            if config.page != old.page:  # the page reads health and outputs afresh: only its block counts
+                self._stop_page()
+                self._start_page()
             if self.persistence is not None and (outputs is not None or self.steps == 0):
                 self.persistence.restore(self.pipeline, self.outputs, from_memory=True)
             if cameras_changed:

@@ -9,7 +9,7 @@ fields a technician can filter on (`journalctl -u mast-stereo STAGE=camera_left`
 
 `FaultLog` watches the health snapshots and logs each stage's fault as it starts and as it
 clears, with a MESSAGE_ID per fault kind, so a camera that stays unplugged for a week is two
-journal entries, not six million.
+journal entries, not six million; it counts the starts per stage and kind (/metrics).
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from __future__ import annotations
 import logging
 import os
 import sys
+from collections import Counter
 from typing import TextIO
 
 from edge.appliance.health import HealthSnapshot
@@ -67,6 +68,7 @@ class FaultLog:
     def __init__(self, logger: logging.Logger) -> None:
         self.log = logger
         self._active: dict[str, str] = {}  # stage -> the problem logged for it
+        self.started: Counter[tuple[str, str]] = Counter()  # (stage, kind) -> faults begun (/metrics)
 
     def observe(self, snapshot: HealthSnapshot) -> None:
         for stage in snapshot.stages:
@@ -77,6 +79,7 @@ class FaultLog:
             before = self._active.get(stage.name)
             if problem is not None and before is None:
                 self._active[stage.name] = problem
+                self.started[stage.name, kind] += 1
                 self.log.error("%s: %s", stage.name, problem,
                                extra={"STAGE": stage.name, "FAULT": problem, "MESSAGE_ID": MESSAGE_IDS[kind]})
             elif problem is None and before is not None:

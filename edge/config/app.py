@@ -30,6 +30,7 @@ from edge.config.alerts import AlertsConfig
 from edge.config.asterix import AsterixConfig
 from edge.config.calibration import Calibration, calibration_ref, optional_site, resolve_path
 from edge.config.masks import MasksConfig, check_image_polygons
+from edge.config.page import PageConfig
 from edge.config.schema import load_dataclass, load_yaml, setting
 from edge.config.table import markdown_table
 from edge.core.site import Site
@@ -310,6 +311,8 @@ class AppConfig:
     ais: AisConfig | None = setting(None, doc="AIS input and association (docs/ais.md); null: off")
     masks: MasksConfig = setting(default_factory=MasksConfig,
                                  doc="exclusion zones: no detection, no birth (docs/site-masks.md)")
+    page: PageConfig = setting(default_factory=PageConfig,
+                               doc="read-only maintenance page and /metrics (docs/page.md); off by default")
 
     @property
     def effective_site(self) -> Site | None:
@@ -349,6 +352,8 @@ def config_from_dict(data: Any, file: str | Path | None) -> AppConfig:
         raise ConfigError(file, "pipeline.max_tracks",
                           f"at most {MAX_TRACKS_WITH_ALERTS} with alerts.enabled "
                           "and Modbus (the alert block starts at register 900)", cfg.pipeline.max_tracks)
+    if cfg.page.token_file is not None:
+        cfg = replace(cfg, page=replace(cfg.page, token_file=str(resolve_path(file, cfg.page.token_file))))
     if cfg.outputs.tracks_csv is not None:
         outputs = replace(cfg.outputs, tracks_csv=str(resolve_path(file, cfg.outputs.tracks_csv)))
         cfg = replace(cfg, outputs=outputs)
